@@ -1,0 +1,723 @@
+"""Numba kernels: the penalty force laws, broad phases and integrators.
+
+Conventions
+-----------
+* State arrays are ``(B, n, D)`` float64: B independent worlds of n balls in D = 2 or 3 dimensions.
+* ``g`` (gravity) is passed as a tuple of length D. Its length is a compile-time constant, so every
+  ``for k in range(D)`` loop is unrolled and a 2D scene runs genuinely 2D machine code.
+* Optional features are passed as ``None`` when off (``friction``, ``ext``): Numba prunes the
+  ``is not None`` branches at compile time, so a feature that is off costs nothing.
+* One force law, one function: :func:`pair_contact` (sphere-sphere) and :func:`terrain_contact`
+  (sphere-implicit terrain) are the only places the seed's formulas live. Every integrator, the
+  energy, the implicit solver's matrix-vector product and both broad phases call them with a
+  ``mode``.
+
+Modes of the contact functions
+------------------------------
+FORCE   add the contact force (seed section 2, plus optional friction) to ``out``
+ENERGY  return the penalty spring's potential 1/2 ks overlap^2
+LINEAR  add ``coef * n (n . (p_i - p_j))`` to ``out`` with ``p`` passed as ``v``: the frozen-contact
+        Jacobian product of the linearised backward Euler step
+DIAG    add ``coef * n*n`` (per component) to ``out``: the Jacobi preconditioner of that solve
+MAXPEN  return overlap / radius (max over contacts), the penetration diagnostic
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .._jit import njit, prange
+
+FORCE, ENERGY, LINEAR, DIAG, MAXPEN = 0, 1, 2, 3, 4
+
+EXPLICIT_EULER, SYMPLECTIC_EULER, VELOCITY_VERLET, RK4, IMPLICIT_EULER = 0, 1, 2, 3, 4
+INTEGRATOR_CODES = {
+    "explicit_euler": EXPLICIT_EULER,
+    "symplectic_euler": SYMPLECTIC_EULER,
+    "velocity_verlet": VELOCITY_VERLET,
+    "rk4": RK4,
+    "implicit_euler": IMPLICIT_EULER,
+}
+# scratch (B, n, D) arrays each integrator needs (the ``work`` argument of its step function)
+WORK_ARRAYS = {EXPLICIT_EULER: 1, SYMPLECTIC_EULER: 1, VELOCITY_VERLET: 3, RK4: 5, IMPLICIT_EULER: 6}
+
+STATUS_OK, STATUS_NONFINITE, STATUS_CG = 0, 1, 2
+
+# The static description of a scene (Warp's "model"): nothing in it changes while stepping.
+Model = namedtuple(
+    "Model",
+    [
+        "radii",  # (n,) ball radii
+        "inv_mass",  # (n,) 1 / mass
+        "shape_kind",  # (S,) SPHERE or BOWL
+        "shape_center",  # (S, D)
+        "shape_radius",  # (S,)
+        "ks",  # sphere-sphere spring, force / length
+        "kd",  # sphere-sphere dashpot, force / speed
+        "ks_terrain",
+        "kd_terrain",
+        "no_tension",  # clip the normal force at zero (no dashpot pull at separation)
+        "cell_size",  # grid cell edge >= the largest diameter
+    ],
+)
+
+# Uniform-grid (cell list) buffers, one grid per world, rebuilt at every force evaluation.
+Grid = namedtuple(
+    "Grid",
+    [
+        "start",  # (B, cap + 1) first item of each cell
+        "items",  # (B, n) ball indices sorted by cell, ascending within a cell
+        "cell",  # (B, n) linear cell index of each ball
+        "geom",  # (B, 7) lower corner (3), upper corner (3), cell size
+        "dims",  # (B, 4) cells per axis (3) and their product
+    ],
+)
+
+
+# --------------------------------------------------------------------------------------------
+# Force laws
+# --------------------------------------------------------------------------------------------
+
+
+@njit
+def _combine(mode, acc, val):
+    if mode == MAXPEN:
+        return max(acc, val)
+    return acc + val
+
+
+@njit
+def pair_contact(mode, b, i, j, x, v, out, coef, scatter, model, friction, g):
+    """Sphere i against sphere j in world b (seed section 2).
+
+    n = (x_j - x_i) / |x_j - x_i|, l0 = r_i + r_j; in contact while |x_j - x_i| < l0.
+    Force on i: f = [ks (|x_j - x_i| - l0) + kd ((v_j - v_i) . n)] n (+ friction), minus on j when
+    ``scatter``. Returns the pair's energy or penetration in those modes, else 0.
+    """
+    D = len(g)
+    l0 = model.radii[i] + model.radii[j]
+    dist2 = 0.0
+    for k in range(D):
+        dx = x[b, j, k] - x[b, i, k]
+        dist2 += dx * dx
+    if not dist2 < l0 * l0:
+        return 0.0
+    dist = np.sqrt(dist2)
+    overlap = l0 - dist
+    if mode == ENERGY:
+        return 0.5 * model.ks * overlap * overlap
+    if mode == MAXPEN:
+        return overlap / min(model.radii[i], model.radii[j])
+    # unit normal i -> j; coincident centres get the last axis (keeps the force finite)
+    inv = 1.0 / dist if dist > 0.0 else 0.0
+    vn = 0.0
+    for k in range(D):
+        nk = (x[b, j, k] - x[b, i, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+        vn += (v[b, j, k] - v[b, i, k]) * nk
+    if mode == DIAG:
+        for k in range(D):
+            nk = (x[b, j, k] - x[b, i, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+            out[b, i, k] += coef * nk * nk
+            if scatter:
+                out[b, j, k] += coef * nk * nk
+        return 0.0
+    if mode == LINEAR:
+        # out_i += coef n (n . (p_i - p_j)) = -coef vn n, with p passed as v
+        for k in range(D):
+            nk = (x[b, j, k] - x[b, i, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+            out[b, i, k] -= coef * vn * nk
+            if scatter:
+                out[b, j, k] += coef * vn * nk
+        return 0.0
+    fn = -model.ks * overlap + model.kd * vn  # along +n on i; < 0 pushes i away from j
+    if model.no_tension and fn > 0.0:
+        fn = 0.0  # the dashpot may not pull the balls together as they separate
+    ft_over_vt = 0.0
+    if friction is not None:
+        # regularised Coulomb (as NVIDIA Warp): |f_t| = min(kf |v_t|, mu |f_n|), along v_t
+        # (the tangential velocity of j relative to i: friction drags i along with j)
+        vt2 = 0.0
+        for k in range(D):
+            nk = (x[b, j, k] - x[b, i, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+            vtk = (v[b, j, k] - v[b, i, k]) - vn * nk
+            vt2 += vtk * vtk
+        if vt2 > 0.0:
+            vt = np.sqrt(vt2)
+            ft_over_vt = min(friction[1] * vt, friction[0] * abs(fn)) / vt
+    for k in range(D):
+        nk = (x[b, j, k] - x[b, i, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+        fk = fn * nk
+        if friction is not None:
+            fk += ft_over_vt * ((v[b, j, k] - v[b, i, k]) - vn * nk)
+        out[b, i, k] += fk
+        if scatter:
+            out[b, j, k] -= fk
+    return 0.0
+
+
+@njit
+def terrain_contact(mode, b, i, x, v, out, coef, model, friction, g):
+    """Sphere i against every static terrain shape (seed section 2, zero rest length).
+
+    In contact while phi(c_i) - r_i < 0. With the outward normal grad phi and the overlap
+    pen = r_i - phi(c_i) > 0: f = ks pen grad phi - kd (v_i . grad phi) grad phi (+ friction).
+    A ball touching several shapes gets a force from each. Returns energy / penetration.
+    """
+    D = len(g)
+    r = model.radii[i]
+    acc = 0.0
+    for s in range(model.shape_kind.shape[0]):
+        sign = 1.0 if model.shape_kind[s] == 0 else -1.0  # SPHERE: |x-c| - R; BOWL: R - |x-c|
+        dist2 = 0.0
+        for k in range(D):
+            dx = x[b, i, k] - model.shape_center[s, k]
+            dist2 += dx * dx
+        dist = np.sqrt(dist2)
+        phi = sign * (dist - model.shape_radius[s])
+        pen = r - phi
+        if not pen > 0.0:
+            continue
+        if mode == ENERGY:
+            acc += 0.5 * model.ks_terrain * pen * pen
+            continue
+        if mode == MAXPEN:
+            acc = max(acc, pen / r)
+            continue
+        inv = sign / dist if dist > 0.0 else 0.0
+        vn = 0.0
+        for k in range(D):
+            gk = (x[b, i, k] - model.shape_center[s, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+            vn += v[b, i, k] * gk
+        if mode == DIAG:
+            for k in range(D):
+                gk = (x[b, i, k] - model.shape_center[s, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+                out[b, i, k] += coef * gk * gk
+            continue
+        if mode == LINEAR:
+            for k in range(D):
+                gk = (x[b, i, k] - model.shape_center[s, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+                out[b, i, k] += coef * vn * gk
+            continue
+        fn = model.ks_terrain * pen - model.kd_terrain * vn  # along +grad phi; > 0 pushes out
+        if model.no_tension and fn < 0.0:
+            fn = 0.0
+        ft_over_vt = 0.0
+        if friction is not None:
+            vt2 = 0.0
+            for k in range(D):
+                gk = (x[b, i, k] - model.shape_center[s, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+                vtk = v[b, i, k] - vn * gk
+                vt2 += vtk * vtk
+            if vt2 > 0.0:
+                vt = np.sqrt(vt2)
+                ft_over_vt = min(friction[1] * vt, friction[0] * abs(fn)) / vt
+        for k in range(D):
+            gk = (x[b, i, k] - model.shape_center[s, k]) * inv if dist > 0.0 else (1.0 if k == D - 1 else 0.0)
+            fk = fn * gk
+            if friction is not None:
+                fk -= ft_over_vt * (v[b, i, k] - vn * gk)  # opposes sliding
+            out[b, i, k] += fk
+    return acc
+
+
+# --------------------------------------------------------------------------------------------
+# Broad phases: all pairs, and a uniform grid (cell list)
+# --------------------------------------------------------------------------------------------
+
+
+@njit
+def contacts_all_pairs(mode, b, x, v, out, coef_pair, coef_terrain, model, friction, g):
+    """Every pair i < j once (forces scattered to both), then the terrain. O(n^2)."""
+    n = x.shape[1]
+    acc = 0.0
+    for i in range(n):
+        for j in range(i + 1, n):
+            acc = _combine(mode, acc, pair_contact(mode, b, i, j, x, v, out, coef_pair, True, model, friction, g))
+        acc = _combine(mode, acc, terrain_contact(mode, b, i, x, v, out, coef_terrain, model, friction, g))
+    return acc
+
+
+@njit
+def build_grid(b, x, grid, model, g):
+    """Counting-sort the balls of world b into cells of edge >= the largest diameter.
+
+    The grid spans the balls' bounding box. If that box would need more cells than the buffer
+    holds (a ball flung far away), the cells grow until it fits: slower, never wrong.
+    Returns False if a coordinate is not finite (the caller reports the blow-up).
+    """
+    D = len(g)
+    n = x.shape[1]
+    cap = grid.start.shape[1] - 1
+    finite = True
+    for k in range(3):
+        grid.geom[b, k] = 0.0  # lower corner
+        grid.geom[b, 3 + k] = 0.0  # upper corner
+        grid.dims[b, k] = 1
+    for k in range(D):
+        lo = np.inf
+        hi = -np.inf
+        for i in range(n):
+            xk = x[b, i, k]
+            if not np.isfinite(xk):
+                finite = False
+                continue
+            lo = min(lo, xk)
+            hi = max(hi, xk)
+        if lo <= hi:
+            grid.geom[b, k] = lo
+            grid.geom[b, 3 + k] = hi
+    h = model.cell_size
+    while True:  # float arithmetic: a far-flung ball must not overflow the cell count
+        total_f = 1.0
+        for k in range(D):
+            total_f *= np.floor((grid.geom[b, 3 + k] - grid.geom[b, k]) / h) + 1.0
+        if total_f <= cap or not h < np.inf:  # cap >= 1 always holds for a real grid
+            break
+        h *= max(1.26, (total_f / cap) ** (1.0 / D))
+    total = 1
+    for k in range(D):
+        nk = int((grid.geom[b, 3 + k] - grid.geom[b, k]) / h) + 1
+        grid.dims[b, k] = nk
+        total *= nk
+    grid.geom[b, 6] = h
+    grid.dims[b, 3] = total
+    inv_h = 1.0 / h
+    for c in range(total + 1):
+        grid.start[b, c] = 0
+    for i in range(n):
+        c = 0
+        stride = 1
+        for k in range(D):
+            q = (x[b, i, k] - grid.geom[b, k]) * inv_h
+            ck = int(q) if q >= 0.0 else 0  # NaN compares False: lands in cell 0, flagged above
+            if ck >= grid.dims[b, k]:
+                ck = grid.dims[b, k] - 1
+            c += ck * stride
+            stride *= grid.dims[b, k]
+        grid.cell[b, i] = c
+        grid.start[b, c] += 1
+    running = 0
+    for c in range(total):
+        running += grid.start[b, c]
+        grid.start[b, c] = running  # inclusive prefix: one past the last item of cell c
+    grid.start[b, total] = n
+    for i in range(n - 1, -1, -1):  # reverse fill leaves each cell ascending in i
+        c = grid.cell[b, i]
+        grid.start[b, c] -= 1
+        grid.items[b, grid.start[b, c]] = i
+    return finite
+
+
+@njit
+def grid_neighbours(mode, b, i, half, x, v, out, coef_pair, grid, model, friction, g):
+    """Pair contacts of ball i with the balls in its own and the adjacent cells.
+
+    ``half``: only j > i, forces scattered to j too (each pair once, serial use).
+    Otherwise every j != i, force gathered on i only (each ball independent: parallel-safe and,
+    because the visiting order is fixed by the grid, independent of the thread count).
+    """
+    D = len(g)
+    nx = grid.dims[b, 0]
+    ny = grid.dims[b, 1]
+    nz = grid.dims[b, 2]
+    c = grid.cell[b, i]
+    cx = c % nx
+    cy = (c // nx) % ny
+    cz = c // (nx * ny)
+    acc = 0.0
+    for o in range(3**D):
+        ox = o % 3 - 1
+        oy = (o // 3) % 3 - 1
+        oz = (o // 9) % 3 - 1 if D == 3 else 0
+        qx = cx + ox
+        qy = cy + oy
+        qz = cz + oz
+        if qx < 0 or qx >= nx or qy < 0 or qy >= ny or qz < 0 or qz >= nz:
+            continue
+        q = (qz * ny + qy) * nx + qx
+        for idx in range(grid.start[b, q], grid.start[b, q + 1]):
+            j = grid.items[b, idx]
+            if half:
+                if j <= i:
+                    continue
+            elif j == i:
+                continue
+            acc = _combine(mode, acc, pair_contact(mode, b, i, j, x, v, out, coef_pair, half, model, friction, g))
+    return acc
+
+
+@njit
+def contacts_grid(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction, g):
+    """Every pair once through the grid (which must be built for these positions), then terrain."""
+    n = x.shape[1]
+    acc = 0.0
+    for i in range(n):
+        acc = _combine(mode, acc, grid_neighbours(mode, b, i, True, x, v, out, coef_pair, grid, model, friction, g))
+        acc = _combine(mode, acc, terrain_contact(mode, b, i, x, v, out, coef_terrain, model, friction, g))
+    return acc
+
+
+@njit
+def contacts(mode, b, x, v, out, coef_pair, coef_terrain, use_grid, grid, model, friction, g):
+    if use_grid:
+        return contacts_grid(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction, g)
+    return contacts_all_pairs(mode, b, x, v, out, coef_pair, coef_terrain, model, friction, g)
+
+
+# --------------------------------------------------------------------------------------------
+# Accelerations and integrators (one world, serial)
+# --------------------------------------------------------------------------------------------
+
+
+@njit
+def accelerations(b, x, v, a, ext, use_grid, grid, model, friction, g):
+    """a = (contact forces + ext) / m + g for world b at state (x, v). False if x is not finite."""
+    D = len(g)
+    n = x.shape[1]
+    finite = True
+    for i in range(n):
+        for k in range(D):
+            a[b, i, k] = 0.0
+    if use_grid:
+        finite = build_grid(b, x, grid, model, g)
+    contacts(FORCE, b, x, v, a, 0.0, 0.0, use_grid, grid, model, friction, g)
+    for i in range(n):
+        im = model.inv_mass[i]
+        for k in range(D):
+            if ext is not None:
+                a[b, i, k] = (a[b, i, k] + ext[b, i, k]) * im + g[k]
+            else:
+                a[b, i, k] = a[b, i, k] * im + g[k]
+    return finite
+
+
+@njit
+def _dot(b, p, q, D):
+    s = 0.0
+    for i in range(p.shape[1]):
+        for k in range(D):
+            s += p[b, i, k] * q[b, i, k]
+    return s
+
+
+@njit
+def implicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g, cg_tol, cg_max_iter):
+    """Linearised backward Euler (Baraff & Witkin 1998), one Newton step with frozen contacts.
+
+    Solves (M - dt D - dt^2 K) dv = dt (f0 + dt K v) by Jacobi-preconditioned conjugate gradients,
+    then v += dv, x += dt v. K and D keep only the normal (n n^T) part of each contact's Jacobian,
+    which is negative semidefinite, so the system matrix is symmetric positive definite and the
+    step is stable at any dt. Friction and the no-tension clip stay explicit (in f0 only).
+    Returns (finite, converged).
+    """
+    D = len(g)
+    n = x.shape[1]
+    f0 = work[0]
+    rhs = work[1]
+    r = work[2]
+    p = work[3]
+    q = work[4]
+    z = work[5]
+    finite = accelerations(b, x, v, f0, ext, use_grid, grid, model, friction, g)  # grid built here
+    c_sp = dt * dt * model.ks
+    c_st = dt * dt * model.ks_terrain
+    c_p = dt * model.kd + c_sp
+    c_t = dt * model.kd_terrain + c_st
+    # rhs = dt M a0 + dt^2 K v, with (K v)_i = -ks n (n . (v_i - v_j)): a LINEAR pass with -coef
+    for i in range(n):
+        for k in range(D):
+            rhs[b, i, k] = 0.0
+            z[b, i, k] = 0.0
+    contacts(LINEAR, b, x, v, rhs, -c_sp, -c_st, use_grid, grid, model, friction, g)
+    for i in range(n):
+        m = 1.0 / model.inv_mass[i]
+        for k in range(D):
+            rhs[b, i, k] += dt * m * f0[b, i, k]
+    # Jacobi preconditioner: diag(M + c n n^T)
+    contacts(DIAG, b, x, v, z, c_p, c_t, use_grid, grid, model, friction, g)
+    for i in range(n):
+        m = 1.0 / model.inv_mass[i]
+        for k in range(D):
+            z[b, i, k] = 1.0 / (z[b, i, k] + m)  # z now holds the inverse diagonal
+    # CG from dv = 0 (dv lives in f0's slot after f0 is consumed: use work[0])
+    dv = f0
+    for i in range(n):
+        for k in range(D):
+            r[b, i, k] = rhs[b, i, k]
+            dv[b, i, k] = 0.0
+            p[b, i, k] = z[b, i, k] * r[b, i, k]
+    rz = 0.0
+    for i in range(n):
+        for k in range(D):
+            rz += r[b, i, k] * z[b, i, k] * r[b, i, k]
+    r0 = np.sqrt(_dot(b, rhs, rhs, D))
+    converged = r0 == 0.0
+    it = 0
+    while not converged and it < cg_max_iter:
+        for i in range(n):
+            m = 1.0 / model.inv_mass[i]
+            for k in range(D):
+                q[b, i, k] = m * p[b, i, k]
+        contacts(LINEAR, b, x, p, q, c_p, c_t, use_grid, grid, model, friction, g)
+        pq = _dot(b, p, q, D)
+        if not pq > 0.0:
+            break
+        alpha = rz / pq
+        for i in range(n):
+            for k in range(D):
+                dv[b, i, k] += alpha * p[b, i, k]
+                r[b, i, k] -= alpha * q[b, i, k]
+        it += 1
+        if np.sqrt(_dot(b, r, r, D)) <= cg_tol * r0:
+            converged = True
+            break
+        rz_new = 0.0
+        for i in range(n):
+            for k in range(D):
+                rz_new += r[b, i, k] * z[b, i, k] * r[b, i, k]
+        beta = rz_new / rz
+        rz = rz_new
+        for i in range(n):
+            for k in range(D):
+                p[b, i, k] = z[b, i, k] * r[b, i, k] + beta * p[b, i, k]
+    for i in range(n):
+        for k in range(D):
+            v[b, i, k] += dv[b, i, k]
+            x[b, i, k] += dt * v[b, i, k]
+    return finite, converged
+
+
+@njit
+def symplectic_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g):
+    """v += dt a(x, v); x += dt v (the course's integrator). Returns False if x is not finite."""
+    D = len(g)
+    a = work[0]
+    ok = accelerations(b, x, v, a, ext, use_grid, grid, model, friction, g)
+    for i in range(x.shape[1]):
+        for k in range(D):
+            v[b, i, k] += dt * a[b, i, k]
+            x[b, i, k] += dt * v[b, i, k]
+    return ok
+
+
+@njit
+def explicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g):
+    """x += dt v; v += dt a(x, v), both from the old state."""
+    D = len(g)
+    a = work[0]
+    ok = accelerations(b, x, v, a, ext, use_grid, grid, model, friction, g)
+    for i in range(x.shape[1]):
+        for k in range(D):
+            x[b, i, k] += dt * v[b, i, k]
+            v[b, i, k] += dt * a[b, i, k]
+    return ok
+
+
+@njit
+def velocity_verlet_step(b, dt, x, v, work, a0_valid, ext, use_grid, grid, model, friction, g):
+    """x1 = x + dt v + dt^2/2 a0; a1 = a(x1, v + dt a0); v1 = v + dt/2 (a0 + a1).
+
+    The damping in a1 sees the predicted end-of-step velocity v + dt a0. ``work[1]`` caches the
+    contact + gravity part of a1 as the next step's a0 (one force evaluation per step); the external
+    force is added on use, so it may change between calls.
+    """
+    D = len(g)
+    n = x.shape[1]
+    a, a0, vp = work[0], work[1], work[2]
+    ok = True
+    if not a0_valid[b]:
+        ok = accelerations(b, x, v, a0, None, use_grid, grid, model, friction, g)
+        a0_valid[b] = True
+    for i in range(n):
+        im = model.inv_mass[i]
+        for k in range(D):
+            ak = a0[b, i, k] + (ext[b, i, k] * im if ext is not None else 0.0)
+            x[b, i, k] += dt * v[b, i, k] + 0.5 * dt * dt * ak
+            vp[b, i, k] = v[b, i, k] + dt * ak
+    ok = accelerations(b, x, vp, a, None, use_grid, grid, model, friction, g) and ok
+    for i in range(n):
+        im = model.inv_mass[i]
+        for k in range(D):
+            e = ext[b, i, k] * im if ext is not None else 0.0
+            v[b, i, k] += 0.5 * dt * (a0[b, i, k] + a[b, i, k] + 2.0 * e)
+            a0[b, i, k] = a[b, i, k]
+    return ok
+
+
+@njit
+def rk4_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g):
+    """Classical fourth-order Runge-Kutta: four full contact passes per step."""
+    D = len(g)
+    n = x.shape[1]
+    a, xe, ve, sx, sv = work[0], work[1], work[2], work[3], work[4]
+    ok = accelerations(b, x, v, a, ext, use_grid, grid, model, friction, g)
+    h2 = 0.5 * dt
+    for i in range(n):
+        for k in range(D):
+            sx[b, i, k] = v[b, i, k]
+            sv[b, i, k] = a[b, i, k]
+            xe[b, i, k] = x[b, i, k] + h2 * v[b, i, k]
+            ve[b, i, k] = v[b, i, k] + h2 * a[b, i, k]
+    for stage in range(1, 4):
+        ok = accelerations(b, xe, ve, a, ext, use_grid, grid, model, friction, g) and ok
+        w = 2.0 if stage < 3 else 1.0
+        hs = h2 if stage == 1 else dt
+        for i in range(n):
+            for k in range(D):
+                sx[b, i, k] += w * ve[b, i, k]
+                sv[b, i, k] += w * a[b, i, k]
+                if stage < 3:
+                    xe[b, i, k] = x[b, i, k] + hs * ve[b, i, k]
+                    ve[b, i, k] = v[b, i, k] + hs * a[b, i, k]
+    h6 = dt / 6.0
+    for i in range(n):
+        for k in range(D):
+            x[b, i, k] += h6 * sx[b, i, k]
+            v[b, i, k] += h6 * sv[b, i, k]
+    return ok
+
+
+@njit
+def _final_status(b, ok, x, v, g):
+    if not ok:
+        return STATUS_NONFINITE
+    for i in range(x.shape[1]):
+        for k in range(len(g)):
+            if not (np.isfinite(x[b, i, k]) and np.isfinite(v[b, i, k])):
+                return STATUS_NONFINITE
+    return STATUS_OK
+
+
+# One driver per integrator: worlds b0..b1-1, nsteps each, every world serial (so a world's result
+# is bit-identical whatever the thread count and whether it runs alone or in a batch). The Python
+# side spreads world ranges over threads (the kernels release the GIL). Separate drivers mean a
+# user compiles only the integrator used (a parallel=True driver holding all five took ~50 s).
+
+
+@njit(nogil=True)
+def run_symplectic_euler(b0, b1, nsteps, dt, x, v, work, ext, use_grid, grid, model, friction, g, status):
+    for b in range(b0, b1):
+        ok = True
+        for _ in range(nsteps):
+            ok = symplectic_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g)
+            if not ok:
+                break
+        status[b] = _final_status(b, ok, x, v, g)
+
+
+@njit(nogil=True)
+def run_explicit_euler(b0, b1, nsteps, dt, x, v, work, ext, use_grid, grid, model, friction, g, status):
+    for b in range(b0, b1):
+        ok = True
+        for _ in range(nsteps):
+            ok = explicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g)
+            if not ok:
+                break
+        status[b] = _final_status(b, ok, x, v, g)
+
+
+@njit(nogil=True)
+def run_velocity_verlet(b0, b1, nsteps, dt, x, v, work, a0_valid, ext, use_grid, grid, model, friction, g, status):
+    for b in range(b0, b1):
+        ok = True
+        for _ in range(nsteps):
+            ok = velocity_verlet_step(b, dt, x, v, work, a0_valid, ext, use_grid, grid, model, friction, g)
+            if not ok:
+                break
+        status[b] = _final_status(b, ok, x, v, g)
+
+
+@njit(nogil=True)
+def run_rk4(b0, b1, nsteps, dt, x, v, work, ext, use_grid, grid, model, friction, g, status):
+    for b in range(b0, b1):
+        ok = True
+        for _ in range(nsteps):
+            ok = rk4_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g)
+            if not ok:
+                break
+        status[b] = _final_status(b, ok, x, v, g)
+
+
+@njit(nogil=True)
+def run_implicit_euler(b0, b1, nsteps, dt, x, v, work, ext, use_grid, grid, model, friction, g,
+                       cg_tol, cg_max_iter, status):
+    for b in range(b0, b1):
+        ok = True
+        all_converged = True
+        for _ in range(nsteps):
+            ok, converged = implicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g,
+                                                cg_tol, cg_max_iter)
+            all_converged = all_converged and converged
+            if not ok:
+                break
+        st = _final_status(b, ok, x, v, g)
+        status[b] = STATUS_CG if st == STATUS_OK and not all_converged else st
+
+
+# --------------------------------------------------------------------------------------------
+# Large worlds: one world's force loop in parallel over balls
+# --------------------------------------------------------------------------------------------
+
+
+@njit(parallel=True)
+def run_large(integ, nsteps, dt, x, v, work, ext, grid, model, friction, g, status):
+    """Symplectic or explicit Euler for worlds too large to run one per thread: each step builds
+    the grid, then gathers every ball's force in parallel (each ball visits its neighbours in the
+    grid's fixed order: no write conflicts, and no dependence on the thread count)."""
+    D = len(g)
+    n = x.shape[1]
+    a = work[0]
+    for b in range(x.shape[0]):
+        ok = True
+        for _ in range(nsteps):
+            if not build_grid(b, x, grid, model, g):
+                ok = False
+                break
+            for i in prange(n):
+                for k in range(D):
+                    a[b, i, k] = 0.0
+                grid_neighbours(FORCE, b, i, False, x, v, a, 0.0, grid, model, friction, g)
+                terrain_contact(FORCE, b, i, x, v, a, 0.0, model, friction, g)
+            for i in prange(n):
+                im = model.inv_mass[i]
+                for k in range(D):
+                    ak = (a[b, i, k] + (ext[b, i, k] if ext is not None else 0.0)) * im + g[k]
+                    if integ == SYMPLECTIC_EULER:
+                        v[b, i, k] += dt * ak
+                        x[b, i, k] += dt * v[b, i, k]
+                    else:
+                        x[b, i, k] += dt * v[b, i, k]
+                        v[b, i, k] += dt * ak
+        status[b] = _final_status(b, ok, x, v, g)
+
+
+# --------------------------------------------------------------------------------------------
+# Diagnostics
+# --------------------------------------------------------------------------------------------
+
+
+@njit(nogil=True)
+def world_energy(x, v, use_grid, grid, model, g, out):
+    """Per world: kinetic + gravitational (-m g . x) + penalty springs (1/2 ks overlap^2)."""
+    D = len(g)
+    for b in range(x.shape[0]):
+        e = 0.0
+        for i in range(x.shape[1]):
+            m = 1.0 / model.inv_mass[i]
+            for k in range(D):
+                e += 0.5 * m * v[b, i, k] * v[b, i, k] - m * g[k] * x[b, i, k]
+        if use_grid:
+            build_grid(b, x, grid, model, g)
+        e += contacts(ENERGY, b, x, v, x, 0.0, 0.0, use_grid, grid, model, None, g)
+        out[b] = e
+
+
+@njit(nogil=True)
+def world_max_penetration(x, v, use_grid, grid, model, g, out):
+    """Per world: the largest overlap as a fraction of the smaller radius in contact."""
+    for b in range(x.shape[0]):
+        if use_grid:
+            build_grid(b, x, grid, model, g)
+        out[b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, use_grid, grid, model, None, g)
