@@ -56,6 +56,7 @@ def njit(*args, **kwargs):
     """
     kwargs.setdefault("cache", True)
     kwargs.setdefault("error_model", "numpy")
+    kwargs.setdefault("_nrt", False)  # see the module docstring
     if kwargs.get("fastmath"):
         raise ValueError("fastmath is banned in penalty_env kernels: it removes NaN/inf checks")
 

@@ -81,14 +81,14 @@ Grid = namedtuple(
 # --------------------------------------------------------------------------------------------
 
 
-@njit
+@njit(inline="always")
 def _combine(mode, acc, val):
     if mode == MAXPEN:
         return max(acc, val)
     return acc + val
 
 
-@njit
+@njit(inline="always")
 def pair_contact(mode, b, i, j, x, v, out, coef, scatter, model, friction, g):
     """Sphere i against sphere j in world b (seed section 2).
 
@@ -157,7 +157,7 @@ def pair_contact(mode, b, i, j, x, v, out, coef, scatter, model, friction, g):
     return 0.0
 
 
-@njit
+@njit(inline="always")
 def terrain_contact(mode, b, i, x, v, out, coef, model, friction, g):
     """Sphere i against every static terrain shape (seed section 2, zero rest length).
 
@@ -174,8 +174,16 @@ def terrain_contact(mode, b, i, x, v, out, coef, model, friction, g):
         for k in range(D):
             dx = x[b, i, k] - model.shape_center[s, k]
             dist2 += dx * dx
+        # miss test without a square root: a Sphere is touched inside radius R + r, a Bowl
+        # outside R - r (NaN compares False and falls through to the exact test)
+        R = model.shape_radius[s]
+        if sign > 0.0:
+            if dist2 >= (R + r) * (R + r):
+                continue
+        elif R > r and dist2 <= (R - r) * (R - r):
+            continue
         dist = np.sqrt(dist2)
-        phi = sign * (dist - model.shape_radius[s])
+        phi = sign * (dist - R)
         pen = r - phi
         if not pen > 0.0:
             continue
@@ -227,7 +235,7 @@ def terrain_contact(mode, b, i, x, v, out, coef, model, friction, g):
 # --------------------------------------------------------------------------------------------
 
 
-@njit
+@njit(inline="always")
 def contacts_all_pairs(mode, b, x, v, out, coef_pair, coef_terrain, model, friction, g):
     """Every pair i < j once (forces scattered to both), then the terrain. O(n^2)."""
     n = x.shape[1]
@@ -310,7 +318,7 @@ def build_grid(b, x, grid, model, g):
     return finite
 
 
-@njit
+@njit(inline="always")
 def grid_neighbours(mode, b, i, half, x, v, out, coef_pair, grid, model, friction, g):
     """Pair contacts of ball i with the balls in its own and the adjacent cells.
 
@@ -348,7 +356,7 @@ def grid_neighbours(mode, b, i, half, x, v, out, coef_pair, grid, model, frictio
     return acc
 
 
-@njit
+@njit(inline="always")
 def contacts_grid(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction, g):
     """Every pair once through the grid (which must be built for these positions), then terrain."""
     n = x.shape[1]
@@ -360,8 +368,20 @@ def contacts_grid(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, fric
 
 
 @njit
-def contacts(mode, b, x, v, out, coef_pair, coef_terrain, use_grid, grid, model, friction, g):
-    if use_grid:
+def contact_forces(b, x, v, out, grid, model, friction, g):
+    """Add every contact force of world b to ``out``: ``contacts`` specialised to FORCE, so the
+    other modes' branches are pruned from the hot path."""
+    if grid is not None:
+        contacts_grid(FORCE, b, x, v, out, 0.0, 0.0, grid, model, friction, g)
+    else:
+        contacts_all_pairs(FORCE, b, x, v, out, 0.0, 0.0, model, friction, g)
+
+
+@njit
+def contacts(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction, g):
+    """Every contact of world b once: through the grid (built for these positions), or all pairs
+    when ``grid`` is None (pruned at compile time: a scene pays only for its broad phase)."""
+    if grid is not None:
         return contacts_grid(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction, g)
     return contacts_all_pairs(mode, b, x, v, out, coef_pair, coef_terrain, model, friction, g)
 
@@ -371,8 +391,8 @@ def contacts(mode, b, x, v, out, coef_pair, coef_terrain, use_grid, grid, model,
 # --------------------------------------------------------------------------------------------
 
 
-@njit
-def accelerations(b, x, v, a, ext, use_grid, grid, model, friction, g):
+@njit(inline="always")
+def accelerations(b, x, v, a, ext, grid, model, friction, g):
     """a = (contact forces + ext) / m + g for world b at state (x, v). False if x is not finite."""
     D = len(g)
     n = x.shape[1]
@@ -380,9 +400,9 @@ def accelerations(b, x, v, a, ext, use_grid, grid, model, friction, g):
     for i in range(n):
         for k in range(D):
             a[b, i, k] = 0.0
-    if use_grid:
+    if grid is not None:
         finite = build_grid(b, x, grid, model, g)
-    contacts(FORCE, b, x, v, a, 0.0, 0.0, use_grid, grid, model, friction, g)
+    contact_forces(b, x, v, a, grid, model, friction, g)
     for i in range(n):
         im = model.inv_mass[i]
         for k in range(D):
@@ -403,7 +423,7 @@ def _dot(b, p, q, D):
 
 
 @njit
-def implicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g, cg_tol, cg_max_iter):
+def implicit_euler_step(b, dt, x, v, work, ext, grid, model, friction, g, cg_tol, cg_max_iter):
     """Linearised backward Euler (Baraff & Witkin 1998), one Newton step with frozen contacts.
 
     Solves (M - dt D - dt^2 K) dv = dt (f0 + dt K v) by Jacobi-preconditioned conjugate gradients,
@@ -420,7 +440,7 @@ def implicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction,
     p = work[3]
     q = work[4]
     z = work[5]
-    finite = accelerations(b, x, v, f0, ext, use_grid, grid, model, friction, g)  # grid built here
+    finite = accelerations(b, x, v, f0, ext, grid, model, friction, g)  # grid built here
     c_sp = dt * dt * model.ks
     c_st = dt * dt * model.ks_terrain
     c_p = dt * model.kd + c_sp
@@ -430,13 +450,13 @@ def implicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction,
         for k in range(D):
             rhs[b, i, k] = 0.0
             z[b, i, k] = 0.0
-    contacts(LINEAR, b, x, v, rhs, -c_sp, -c_st, use_grid, grid, model, friction, g)
+    contacts(LINEAR, b, x, v, rhs, -c_sp, -c_st, grid, model, friction, g)
     for i in range(n):
         m = 1.0 / model.inv_mass[i]
         for k in range(D):
             rhs[b, i, k] += dt * m * f0[b, i, k]
     # Jacobi preconditioner: diag(M + c n n^T)
-    contacts(DIAG, b, x, v, z, c_p, c_t, use_grid, grid, model, friction, g)
+    contacts(DIAG, b, x, v, z, c_p, c_t, grid, model, friction, g)
     for i in range(n):
         m = 1.0 / model.inv_mass[i]
         for k in range(D):
@@ -460,7 +480,7 @@ def implicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction,
             m = 1.0 / model.inv_mass[i]
             for k in range(D):
                 q[b, i, k] = m * p[b, i, k]
-        contacts(LINEAR, b, x, p, q, c_p, c_t, use_grid, grid, model, friction, g)
+        contacts(LINEAR, b, x, p, q, c_p, c_t, grid, model, friction, g)
         pq = _dot(b, p, q, D)
         if not pq > 0.0:
             break
@@ -489,12 +509,12 @@ def implicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction,
     return finite, converged
 
 
-@njit
-def symplectic_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g):
+@njit(inline="always")
+def symplectic_euler_step(b, dt, x, v, work, ext, grid, model, friction, g):
     """v += dt a(x, v); x += dt v (the course's integrator). Returns False if x is not finite."""
     D = len(g)
     a = work[0]
-    ok = accelerations(b, x, v, a, ext, use_grid, grid, model, friction, g)
+    ok = accelerations(b, x, v, a, ext, grid, model, friction, g)
     for i in range(x.shape[1]):
         for k in range(D):
             v[b, i, k] += dt * a[b, i, k]
@@ -502,12 +522,12 @@ def symplectic_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, frictio
     return ok
 
 
-@njit
-def explicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g):
+@njit(inline="always")
+def explicit_euler_step(b, dt, x, v, work, ext, grid, model, friction, g):
     """x += dt v; v += dt a(x, v), both from the old state."""
     D = len(g)
     a = work[0]
-    ok = accelerations(b, x, v, a, ext, use_grid, grid, model, friction, g)
+    ok = accelerations(b, x, v, a, ext, grid, model, friction, g)
     for i in range(x.shape[1]):
         for k in range(D):
             x[b, i, k] += dt * v[b, i, k]
@@ -515,8 +535,8 @@ def explicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction,
     return ok
 
 
-@njit
-def velocity_verlet_step(b, dt, x, v, work, a0_valid, ext, use_grid, grid, model, friction, g):
+@njit(inline="always")
+def velocity_verlet_step(b, dt, x, v, work, a0_valid, ext, grid, model, friction, g):
     """x1 = x + dt v + dt^2/2 a0; a1 = a(x1, v + dt a0); v1 = v + dt/2 (a0 + a1).
 
     The damping in a1 sees the predicted end-of-step velocity v + dt a0. ``work[1]`` caches the
@@ -528,7 +548,7 @@ def velocity_verlet_step(b, dt, x, v, work, a0_valid, ext, use_grid, grid, model
     a, a0, vp = work[0], work[1], work[2]
     ok = True
     if not a0_valid[b]:
-        ok = accelerations(b, x, v, a0, None, use_grid, grid, model, friction, g)
+        ok = accelerations(b, x, v, a0, None, grid, model, friction, g)
         a0_valid[b] = True
     for i in range(n):
         im = model.inv_mass[i]
@@ -536,7 +556,7 @@ def velocity_verlet_step(b, dt, x, v, work, a0_valid, ext, use_grid, grid, model
             ak = a0[b, i, k] + (ext[b, i, k] * im if ext is not None else 0.0)
             x[b, i, k] += dt * v[b, i, k] + 0.5 * dt * dt * ak
             vp[b, i, k] = v[b, i, k] + dt * ak
-    ok = accelerations(b, x, vp, a, None, use_grid, grid, model, friction, g) and ok
+    ok = accelerations(b, x, vp, a, None, grid, model, friction, g) and ok
     for i in range(n):
         im = model.inv_mass[i]
         for k in range(D):
@@ -546,13 +566,13 @@ def velocity_verlet_step(b, dt, x, v, work, a0_valid, ext, use_grid, grid, model
     return ok
 
 
-@njit
-def rk4_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g):
+@njit(inline="always")
+def rk4_step(b, dt, x, v, work, ext, grid, model, friction, g):
     """Classical fourth-order Runge-Kutta: four full contact passes per step."""
     D = len(g)
     n = x.shape[1]
     a, xe, ve, sx, sv = work[0], work[1], work[2], work[3], work[4]
-    ok = accelerations(b, x, v, a, ext, use_grid, grid, model, friction, g)
+    ok = accelerations(b, x, v, a, ext, grid, model, friction, g)
     h2 = 0.5 * dt
     for i in range(n):
         for k in range(D):
@@ -561,7 +581,7 @@ def rk4_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g):
             xe[b, i, k] = x[b, i, k] + h2 * v[b, i, k]
             ve[b, i, k] = v[b, i, k] + h2 * a[b, i, k]
     for stage in range(1, 4):
-        ok = accelerations(b, xe, ve, a, ext, use_grid, grid, model, friction, g) and ok
+        ok = accelerations(b, xe, ve, a, ext, grid, model, friction, g) and ok
         w = 2.0 if stage < 3 else 1.0
         hs = h2 if stage == 1 else dt
         for i in range(n):
@@ -597,57 +617,57 @@ def _final_status(b, ok, x, v, g):
 
 
 @njit(nogil=True)
-def run_symplectic_euler(b0, b1, nsteps, dt, x, v, work, ext, use_grid, grid, model, friction, g, status):
+def run_symplectic_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, status):
     for b in range(b0, b1):
         ok = True
         for _ in range(nsteps):
-            ok = symplectic_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g)
+            ok = symplectic_euler_step(b, dt, x, v, work, ext, grid, model, friction, g)
             if not ok:
                 break
         status[b] = _final_status(b, ok, x, v, g)
 
 
 @njit(nogil=True)
-def run_explicit_euler(b0, b1, nsteps, dt, x, v, work, ext, use_grid, grid, model, friction, g, status):
+def run_explicit_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, status):
     for b in range(b0, b1):
         ok = True
         for _ in range(nsteps):
-            ok = explicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g)
+            ok = explicit_euler_step(b, dt, x, v, work, ext, grid, model, friction, g)
             if not ok:
                 break
         status[b] = _final_status(b, ok, x, v, g)
 
 
 @njit(nogil=True)
-def run_velocity_verlet(b0, b1, nsteps, dt, x, v, work, a0_valid, ext, use_grid, grid, model, friction, g, status):
+def run_velocity_verlet(b0, b1, nsteps, dt, x, v, work, a0_valid, ext, grid, model, friction, g, status):
     for b in range(b0, b1):
         ok = True
         for _ in range(nsteps):
-            ok = velocity_verlet_step(b, dt, x, v, work, a0_valid, ext, use_grid, grid, model, friction, g)
+            ok = velocity_verlet_step(b, dt, x, v, work, a0_valid, ext, grid, model, friction, g)
             if not ok:
                 break
         status[b] = _final_status(b, ok, x, v, g)
 
 
 @njit(nogil=True)
-def run_rk4(b0, b1, nsteps, dt, x, v, work, ext, use_grid, grid, model, friction, g, status):
+def run_rk4(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, status):
     for b in range(b0, b1):
         ok = True
         for _ in range(nsteps):
-            ok = rk4_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g)
+            ok = rk4_step(b, dt, x, v, work, ext, grid, model, friction, g)
             if not ok:
                 break
         status[b] = _final_status(b, ok, x, v, g)
 
 
 @njit(nogil=True)
-def run_implicit_euler(b0, b1, nsteps, dt, x, v, work, ext, use_grid, grid, model, friction, g,
+def run_implicit_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g,
                        cg_tol, cg_max_iter, status):
     for b in range(b0, b1):
         ok = True
         all_converged = True
         for _ in range(nsteps):
-            ok, converged = implicit_euler_step(b, dt, x, v, work, ext, use_grid, grid, model, friction, g,
+            ok, converged = implicit_euler_step(b, dt, x, v, work, ext, grid, model, friction, g,
                                                 cg_tol, cg_max_iter)
             all_converged = all_converged and converged
             if not ok:
@@ -699,7 +719,7 @@ def run_large(integ, nsteps, dt, x, v, work, ext, grid, model, friction, g, stat
 
 
 @njit(nogil=True)
-def world_energy(x, v, use_grid, grid, model, g, out):
+def world_energy(x, v, grid, model, g, out):
     """Per world: kinetic + gravitational (-m g . x) + penalty springs (1/2 ks overlap^2)."""
     D = len(g)
     for b in range(x.shape[0]):
@@ -708,16 +728,16 @@ def world_energy(x, v, use_grid, grid, model, g, out):
             m = 1.0 / model.inv_mass[i]
             for k in range(D):
                 e += 0.5 * m * v[b, i, k] * v[b, i, k] - m * g[k] * x[b, i, k]
-        if use_grid:
+        if grid is not None:
             build_grid(b, x, grid, model, g)
-        e += contacts(ENERGY, b, x, v, x, 0.0, 0.0, use_grid, grid, model, None, g)
+        e += contacts(ENERGY, b, x, v, x, 0.0, 0.0, grid, model, None, g)
         out[b] = e
 
 
 @njit(nogil=True)
-def world_max_penetration(x, v, use_grid, grid, model, g, out):
+def world_max_penetration(x, v, grid, model, g, out):
     """Per world: the largest overlap as a fraction of the smaller radius in contact."""
     for b in range(x.shape[0]):
-        if use_grid:
+        if grid is not None:
             build_grid(b, x, grid, model, g)
-        out[b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, use_grid, grid, model, None, g)
+        out[b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, grid, model, None, g)

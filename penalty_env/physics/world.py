@@ -239,8 +239,7 @@ class World:
                 dims=np.ones((B, 4), dtype=np.int64),
             )
         else:
-            z = np.zeros((B, 1), dtype=np.int64)
-            self._grid = K.Grid(start=z, items=z, cell=z, geom=np.zeros((B, 7)), dims=np.ones((B, 4), dtype=np.int64))
+            self._grid = None  # all pairs: the kernels compile without the grid code
         self.cg_tol = 1e-10
         self.cg_max_iter = max(50, 4 * n * d)
 
@@ -381,7 +380,7 @@ class World:
         """Run the integrator's driver over world ranges, spread over threads when it pays."""
         integ = self._integ
         tail = (self._x, self._v, self._work)
-        common = (self.use_grid, self._grid, self._model, self._friction, self.gravity)
+        common = (self._grid, self._model, self._friction, self.gravity)
         if integ == K.VELOCITY_VERLET:
             args = (n, self.dt) + tail + (self._a0_valid, ext) + common + (self._status,)
         elif integ == K.IMPLICIT_EULER:
@@ -420,12 +419,12 @@ class World:
 
     def energy(self):
         """Kinetic + gravitational + penalty-spring potential (1/2 ks overlap^2), per world."""
-        K.world_energy(self._x, self._v, self.use_grid, self._grid, self._model, self.gravity, self._scalar)
+        K.world_energy(self._x, self._v, self._grid, self._model, self.gravity, self._scalar)
         return self._per_world(self._scalar)
 
     def max_penetration(self):
         """Largest overlap as a fraction of the (smaller) radius in contact, per world."""
-        K.world_max_penetration(self._x, self._v, self.use_grid, self._grid, self._model, self.gravity, self._scalar)
+        K.world_max_penetration(self._x, self._v, self._grid, self._model, self.gravity, self._scalar)
         return self._per_world(self._scalar)
 
     def momentum(self):

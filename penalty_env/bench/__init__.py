@@ -1,0 +1,1 @@
+"""Benchmarks: ``python -m penalty_env.bench {core,env,accuracy,stability}``."""

@@ -1,0 +1,26 @@
+"""``python -m penalty_env.bench {core,env,accuracy,stability} [options]``."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+COMMANDS = {
+    "core": "penalty_env.bench.core",
+    "env": "penalty_env.bench.env",
+    "accuracy": "penalty_env.bench.accuracy",
+    "stability": "penalty_env.bench.stability",
+}
+
+
+def main(argv=None) -> None:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in COMMANDS:
+        print(__doc__.strip())
+        print("commands: " + ", ".join(COMMANDS))
+        raise SystemExit(2 if argv and argv[0] not in ("-h", "--help") else 0)
+    importlib.import_module(COMMANDS[argv[0]]).main(argv[1:])
+
+
+if __name__ == "__main__":
+    main()

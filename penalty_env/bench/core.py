@@ -1,0 +1,181 @@
+"""Speed of the physics core: ``python -m penalty_env.bench core [--quick]``.
+
+Prints, for the symplectic-Euler step on this machine:
+  (a) 1,024 worlds of 6 balls in a 3D bowl: particle-substeps per second;
+  (b) one world of 1,000 / 10,000 / 100,000 balls packed in a bowl (grid): particle-substeps per
+      second and the time per particle (flat from 1,000 to 100,000 is the goal);
+  (c) the all-pairs / grid crossover in balls per world (``World`` uses it for ``broadphase="auto"``);
+  (d) the first-call compile time, cold (fresh cache) and warm (cache filled).
+Peer figure for (b): LAMMPS's granular chute benchmark logs about 20.6 million particle-steps per
+second on one core (PHYSICS.md section 5).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from ..physics import Bowl, World, theory
+from ..physics.world import GRID_MIN_BALLS, LARGE_WORLD_MIN_BALLS
+
+LAMMPS_PARTICLE_STEPS_PER_S = 20.6e6
+
+
+def packed_bowl(n: int, d: int = 3, radius: float = 0.5, seed: int = 0, spacing: float = 2.02):
+    """n balls of one radius on a jittered lattice filling the bottom of a bowl, lowest first."""
+    R = radius * (spacing**d * n / (0.6 * (np.pi if d == 2 else 2.0 * np.pi / 3.0))) ** (1.0 / d) + 2 * radius
+    center = np.zeros(d)
+    center[-1] = R
+    side = int(np.ceil(2 * R / (spacing * radius))) + 1
+    axes = [np.arange(side) * spacing * radius - R for _ in range(d)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d) + center
+    inside = np.linalg.norm(grid - center, axis=1) < R - 1.5 * radius
+    pts = grid[inside]
+    pts = pts[np.argsort(pts[:, -1], kind="stable")][:n]
+    if len(pts) < n:
+        raise RuntimeError(f"packing failed: {len(pts)} < {n}")
+    rng = np.random.default_rng(seed)
+    pts = pts + rng.uniform(-0.005, 0.005, pts.shape) * radius
+    return pts, Bowl(tuple(center), R)
+
+
+def _scene_params(radius: float, mass: float, g: float = 9.81):
+    # stiffness from a penetration tolerance: 5% of the radius at the speed of a fall of 2 radii
+    v = np.sqrt(2 * g * 2 * radius)
+    ks = theory.stiffness_for_penetration(mass / 2, v, 0.05 * radius)
+    kd = theory.damping_for_restitution(0.5, ks, mass / 2)
+    return ks, kd
+
+
+def _rate(world: World, target_s: float) -> float:
+    """Particle-substeps per second of ``world.step``, timed over about target_s seconds."""
+    world.step(2)  # compile / warm
+    steps = 4
+    while True:
+        t = time.perf_counter()
+        world.step(steps)
+        el = time.perf_counter() - t
+        if el > target_s / 4 or steps > 1 << 22:
+            break
+        steps *= 4
+    reps = max(1, int(target_s / max(el, 1e-9)))
+    best = el
+    for _ in range(min(reps, 3)):
+        t = time.perf_counter()
+        world.step(steps)
+        best = min(best, time.perf_counter() - t)
+    return world.n_worlds * world.n_balls * steps / best
+
+
+def bench_batched(n_worlds: int = 1024, n_balls: int = 6, target_s: float = 1.0) -> float:
+    rng = np.random.default_rng(1)
+    radius, mass = 0.1, 0.1
+    R = 1.0
+    bowl = Bowl((0.0, 0.0, R), R)
+    # balls scattered in the lower half of the bowl, no initial overlap
+    pos = np.empty((n_worlds, n_balls, 3))
+    for b in range(n_worlds):
+        k = 0
+        while k < n_balls:
+            p = rng.uniform(-0.6, 0.6, 3) + (0, 0, R)
+            p[2] = rng.uniform(0.15, 0.9)
+            if np.linalg.norm(p - bowl.center) < R - radius and all(
+                np.linalg.norm(p - pos[b, j]) > 2.05 * radius for j in range(k)
+            ):
+                pos[b, k] = p
+                k += 1
+    ks, kd = _scene_params(radius, mass)
+    w = World(pos, np.full(n_balls, radius), np.full(n_balls, mass), terrain=(bowl,), ks=ks, kd=kd, dt=1.0,
+              allow_unstable=True)
+    dt = w.stability_limit()
+    w = World(pos, np.full(n_balls, radius), np.full(n_balls, mass), terrain=(bowl,), ks=ks, kd=kd, dt=dt)
+    return _rate(w, target_s)
+
+
+def large_world(n: int, broadphase: str = "grid") -> World:
+    radius, mass = 0.5, 1.0
+    pos, bowl = packed_bowl(n, 3, radius)
+    ks, kd = _scene_params(radius, mass)
+    probe = World(pos[:2], [radius] * 2, [mass] * 2, terrain=(bowl,), ks=ks, kd=kd, dt=1.0, allow_unstable=True)
+    return World(pos, np.full(n, radius), np.full(n, mass), terrain=(bowl,), ks=ks, kd=kd,
+                 dt=probe.stability_limit(), broadphase=broadphase)
+
+
+def crossover(sizes=(8, 16, 24, 32, 48, 64, 96, 128, 256), target_s: float = 0.3):
+    rows = []
+    for n in sizes:
+        ap = _rate(large_world(n, "all_pairs"), target_s)
+        gr = _rate(large_world(n, "grid"), target_s)
+        rows.append((n, ap, gr))
+    first_grid = next((n for n, ap, gr in rows if gr > ap), None)
+    return rows, first_grid
+
+
+_COMPILE_SNIPPET = """
+import time, numpy as np
+t = time.perf_counter()
+from penalty_env.physics import World, Bowl
+w = World(np.array([[0.0, 0.0, 0.5]]), [0.4], [1.0], terrain=(Bowl((0, 0, 8.0), 8.0),), ks=1e4, kd=10.0, dt=1e-3)
+w.step(1)
+print(time.perf_counter() - t)
+"""
+
+
+def compile_times() -> tuple[float, float]:
+    """Import + first step in a fresh process: with an empty cache, then with it filled."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        out = []
+        for _ in range(2):
+            res = subprocess.run([sys.executable, "-c", _COMPILE_SNIPPET], env=env, capture_output=True, text=True, check=True)
+            out.append(float(res.stdout.strip().splitlines()[-1]))
+    return out[0], out[1]
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(prog="python -m penalty_env.bench core", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="smaller sizes and shorter timings (CI smoke run)")
+    args = ap.parse_args(argv)
+    quick = args.quick
+    t_s = 0.2 if quick else 1.0
+    import numba
+
+    print(f"penalty_env core benchmark: symplectic Euler, {numba.config.NUMBA_NUM_THREADS} threads, "
+          f"numba {numba.__version__}")
+    nw = 64 if quick else 1024
+    rate = bench_batched(nw, 6, t_s)
+    print(f"(a) {nw} worlds x 6 balls, 3D bowl: {rate / 1e6:8.1f} M particle-substeps/s  (target >= 80 M)")
+
+    sizes = (1_000, 4_000) if quick else (1_000, 10_000, 100_000)
+    per_particle = {}
+    for n in sizes:
+        w = large_world(n)
+        r = _rate(w, t_s)
+        per_particle[n] = 1e9 / r
+        mode = "parallel over balls" if w._large else "one world per thread"
+        print(f"(b) 1 world x {n:>7,} balls (grid, {mode}): {r / 1e6:8.1f} M particle-substeps/s, "
+              f"{1e9 / r:6.1f} ns per particle-step, {r / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's 20.6 M/s")
+    ns = sorted(per_particle)
+    print(f"    time per particle, largest / smallest world: {per_particle[ns[-1]] / per_particle[ns[0]]:.2f}x "
+          f"(flat within 1.5x is the goal)")
+
+    rows, first = crossover((8, 32, 64, 128) if quick else (8, 16, 24, 32, 48, 64, 96, 128, 256), 0.1 if quick else 0.3)
+    print("(c) balls  all-pairs M/s   grid M/s")
+    for n, a, g in rows:
+        print(f"    {n:5d}  {a / 1e6:12.2f}  {g / 1e6:9.2f}")
+    print(f"    grid faster from {first} balls; World uses the grid from GRID_MIN_BALLS = {GRID_MIN_BALLS} "
+          f"(parallel-over-balls from {LARGE_WORLD_MIN_BALLS})")
+
+    cold, warm = compile_times()
+    print(f"(d) import + first step in a fresh process: cold cache {cold:.2f} s, warm cache {warm:.2f} s (target warm < 1 s)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,194 @@
+"""The env's jitted step: action to motor force, physics substeps, observation and reward.
+
+One call advances the worlds listed in ``worlds`` by one control period. The physics is the core's
+own ``symplectic_euler_step`` (one force law, one integrator: the same machine code a ``World``
+runs), so a world's trajectory does not depend on which env (single, vector, SB3) steps it or on
+how many worlds share the batch. Everything else a step needs (the motor force, the observation,
+the reward terms, the penetration diagnostic) happens in the same call, so Python touches a
+batch once per step, and nothing is allocated.
+
+Ball order in every world: 0 the pusher, 1 the ball, 2.. the obstacles. The last axis is "up";
+the others are horizontal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import njit
+from ..physics import kernels as K
+
+# ``phys``: the contact model and integrator settings (float64 array)
+P_KS, P_KD, P_KS_TERRAIN, P_KD_TERRAIN, P_NO_TENSION, P_MU, P_KF, P_DT, P_SUBSTEPS, P_G = range(10)
+N_PHYS = P_G + 3  # gravity takes the last D entries (D <= 3)
+
+# ``envp``: the task (float64 array)
+(
+    E_MAX_FORCE,
+    E_MAX_SPEED,
+    E_W_GOAL,
+    E_W_REACH,
+    E_BONUS,
+    E_GOAL_TOL,
+    E_PUSH_OFFSET,
+    E_POS_BOUND,
+    E_VEL_BOUND,
+) = range(9)
+N_ENVP = 9
+
+# ``out``: per-world results of the last step (float64 array, (B, N_OUT))
+(
+    O_REWARD,
+    O_REWARD_GOAL,
+    O_REWARD_REACH,
+    O_REWARD_SUCCESS,
+    O_DISTANCE,
+    O_PUSHER_DISTANCE,
+    O_MAX_OVERLAP,
+    O_SUCCESS,
+) = range(8)
+N_OUT = 8
+
+# return codes of ``step_worlds``
+OK = 0
+# a value < 0 is -(1 + b) for the first world b whose action is NaN or inf (nothing was stepped);
+# a value > 0 is the number of worlds whose state became NaN or inf (flagged in ``status``)
+
+
+@njit(inline="always")
+def _clip(value, lo, hi):
+    return min(max(value, lo), hi)
+
+
+@njit(inline="always")
+def _distances(b, x, goal, envp, D):
+    """(ball-goal distance, pusher-push-point distance) of world b.
+
+    The push point sits behind the ball on the goal line, one contact distance away: a pusher
+    there that moves toward the goal pushes the ball straight at it."""
+    dg2 = 0.0
+    for k in range(D):
+        dk = goal[b, k] - x[b, 1, k]
+        dg2 += dk * dk
+    dg = np.sqrt(dg2)
+    inv = 1.0 / dg if dg > 0.0 else 0.0
+    dp2 = 0.0
+    for k in range(D):
+        push_k = x[b, 1, k] - (goal[b, k] - x[b, 1, k]) * inv * envp[E_PUSH_OFFSET]
+        dk = push_k - x[b, 0, k]
+        dp2 += dk * dk
+    return dg, np.sqrt(dp2)
+
+
+@njit(inline="always")
+def _observe(b, x, v, goal, obs, envp, D):
+    """Write world b's observation (layout in the env's docstring), clipped to its bounds."""
+    pb = envp[E_POS_BOUND]
+    vb = envp[E_VEL_BOUND]
+    n = x.shape[1]
+    for k in range(D):
+        # positions: a centre stays inside the bowl, |x - c| <= R; c = R e_up
+        lo = 0.0 if k == D - 1 else -pb
+        hi = 2.0 * pb if k == D - 1 else pb
+        obs[b, k] = _clip(x[b, 0, k], lo, hi)
+        obs[b, D + k] = _clip(v[b, 0, k], -vb, vb)
+        obs[b, 2 * D + k] = _clip(x[b, 1, k], lo, hi)
+        obs[b, 3 * D + k] = _clip(v[b, 1, k], -vb, vb)
+        obs[b, 4 * D + k] = _clip(goal[b, k], lo, hi)
+        obs[b, 5 * D + k] = _clip(x[b, 1, k] - x[b, 0, k], -2.0 * pb, 2.0 * pb)
+        obs[b, 6 * D + k] = _clip(goal[b, k] - x[b, 1, k], -2.0 * pb, 2.0 * pb)
+        for j in range(2, n):
+            base = 7 * D + 2 * D * (j - 2)
+            obs[b, base + k] = _clip(x[b, j, k], lo, hi)
+            obs[b, base + D + k] = _clip(v[b, j, k], -vb, vb)
+
+
+@njit(inline="always")
+def _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
+                 shape_radius, phys, envp, goal, prev, obs, out, status, g):
+    D = len(g)
+    n = x.shape[1]
+    na = act.shape[1]
+    # refuse a non-finite action before anything moves
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        if stepping[b]:
+            for k in range(na):
+                if not np.isfinite(act[b, k]):
+                    return -(1 + b)
+    model = K.Model(
+        radii, inv_mass, shape_kind, shape_center, shape_radius, phys[P_KS], phys[P_KD],
+        phys[P_KS_TERRAIN], phys[P_KD_TERRAIN], phys[P_NO_TENSION] != 0.0, 0.0,
+    )
+    friction = (phys[P_MU], phys[P_KF])
+    dt = phys[P_DT]
+    substeps = int(phys[P_SUBSTEPS])
+    fmax = envp[E_MAX_FORCE]
+    inv_vmax = 1.0 / envp[E_MAX_SPEED]
+    bad = 0
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        status[b] = 0
+        if stepping[b]:
+            # the pusher's motor: F_max (a - v / v_max) along each horizontal axis, held for
+            # the control period (a DC motor's linear force-speed law; clipped throttle)
+            for i in range(n):
+                for k in range(D):
+                    ext[b, i, k] = 0.0
+            for k in range(na):
+                ext[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) - v[b, 0, k] * inv_vmax)
+            for _ in range(substeps):
+                K.symplectic_euler_step(b, dt, x, v, work, ext, None, model, friction, g)
+            finite = True
+            for i in range(n):
+                for k in range(D):
+                    if not (np.isfinite(x[b, i, k]) and np.isfinite(v[b, i, k])):
+                        finite = False
+            if not finite:
+                status[b] = 1
+                bad += 1
+                continue
+        dg, dp = _distances(b, x, goal, envp, D)
+        _observe(b, x, v, goal, obs, envp, D)
+        out[b, O_MAX_OVERLAP] = K.contacts(K.MAXPEN, b, x, v, x, 0.0, 0.0, None, model, None, g)
+        out[b, O_DISTANCE] = dg
+        out[b, O_PUSHER_DISTANCE] = dp
+        if stepping[b]:
+            success = dg < envp[E_GOAL_TOL]
+            r_goal = envp[E_W_GOAL] * (prev[b, 0] - dg)
+            r_reach = envp[E_W_REACH] * (prev[b, 1] - dp)
+            r_success = envp[E_BONUS] if success else 0.0
+            out[b, O_REWARD_GOAL] = r_goal
+            out[b, O_REWARD_REACH] = r_reach
+            out[b, O_REWARD_SUCCESS] = r_success
+            out[b, O_REWARD] = r_goal + r_reach + r_success
+            out[b, O_SUCCESS] = 1.0 if success else 0.0
+        else:  # a world just reset: its observation, no reward
+            out[b, O_REWARD_GOAL] = 0.0
+            out[b, O_REWARD_REACH] = 0.0
+            out[b, O_REWARD_SUCCESS] = 0.0
+            out[b, O_REWARD] = 0.0
+            out[b, O_SUCCESS] = 0.0
+        prev[b, 0] = dg
+        prev[b, 1] = dp
+    return bad
+
+
+# One entry point per dimension: gravity becomes a tuple of length D here, so the core's loops
+# unroll for D. ``stepping[b]`` False: world b was just reset; observe it without stepping.
+
+
+@njit(nogil=True)
+def step_worlds_2d(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
+                   shape_radius, phys, envp, goal, prev, obs, out, status):
+    g = (phys[P_G], phys[P_G + 1])
+    return _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
+                        shape_radius, phys, envp, goal, prev, obs, out, status, g)
+
+
+@njit(nogil=True)
+def step_worlds_3d(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
+                   shape_radius, phys, envp, goal, prev, obs, out, status):
+    g = (phys[P_G], phys[P_G + 1], phys[P_G + 2])
+    return _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
+                        shape_radius, phys, envp, goal, prev, obs, out, status, g)
