@@ -247,6 +247,14 @@ def contacts_all_pairs(mode, b, x, v, out, coef_pair, coef_terrain, model, frict
     return acc
 
 
+@njit(inline="always")
+def _cell_coord(xk, lo, inv_h, nk):
+    """Cell index along one axis, clamped to [0, nk); NaN lands in cell 0."""
+    q = (xk - lo) * inv_h
+    c = int(q) if q >= 0.0 else 0
+    return c if c < nk else nk - 1
+
+
 @njit
 def build_grid(b, x, grid, model, g):
     """Counting-sort the balls of world b into cells of edge >= the largest diameter.
@@ -298,10 +306,7 @@ def build_grid(b, x, grid, model, g):
         c = 0
         stride = 1
         for k in range(D):
-            q = (x[b, i, k] - grid.geom[b, k]) * inv_h
-            ck = int(q) if q >= 0.0 else 0  # NaN compares False: lands in cell 0, flagged above
-            if ck >= grid.dims[b, k]:
-                ck = grid.dims[b, k] - 1
+            ck = _cell_coord(x[b, i, k], grid.geom[b, k], inv_h, grid.dims[b, k])
             c += ck * stride
             stride *= grid.dims[b, k]
         grid.cell[b, i] = c
@@ -330,29 +335,27 @@ def grid_neighbours(mode, b, i, half, x, v, out, coef_pair, grid, model, frictio
     nx = grid.dims[b, 0]
     ny = grid.dims[b, 1]
     nz = grid.dims[b, 2]
-    c = grid.cell[b, i]
-    cx = c % nx
-    cy = (c // nx) % ny
-    cz = c // (nx * ny)
+    # cell coordinates of ball i (as build_grid computed them; no integer division needed)
+    inv_h = 1.0 / grid.geom[b, 6]
+    cx = _cell_coord(x[b, i, 0], grid.geom[b, 0], inv_h, nx)
+    cy = _cell_coord(x[b, i, 1], grid.geom[b, 1], inv_h, ny)
+    cz = _cell_coord(x[b, i, 2], grid.geom[b, 2], inv_h, nz) if D == 3 else 0
+    # cells adjacent along x are adjacent in the sorted items, so each (y, z) row of the 3^D
+    # neighbourhood is one contiguous range: 9 ranges in 3D, 3 in 2D
+    x0 = max(cx - 1, 0)
+    x1 = min(cx + 2, nx)
     acc = 0.0
-    for o in range(3**D):
-        ox = o % 3 - 1
-        oy = (o // 3) % 3 - 1
-        oz = (o // 9) % 3 - 1 if D == 3 else 0
-        qx = cx + ox
-        qy = cy + oy
-        qz = cz + oz
-        if qx < 0 or qx >= nx or qy < 0 or qy >= ny or qz < 0 or qz >= nz:
-            continue
-        q = (qz * ny + qy) * nx + qx
-        for idx in range(grid.start[b, q], grid.start[b, q + 1]):
-            j = grid.items[b, idx]
-            if half:
-                if j <= i:
+    for qz in range(max(cz - 1, 0), min(cz + 2, nz)):
+        for qy in range(max(cy - 1, 0), min(cy + 2, ny)):
+            row = (qz * ny + qy) * nx
+            for idx in range(grid.start[b, row + x0], grid.start[b, row + x1]):
+                j = grid.items[b, idx]
+                if half:
+                    if j <= i:
+                        continue
+                elif j == i:
                     continue
-            elif j == i:
-                continue
-            acc = _combine(mode, acc, pair_contact(mode, b, i, j, x, v, out, coef_pair, half, model, friction, g))
+                acc = _combine(mode, acc, pair_contact(mode, b, i, j, x, v, out, coef_pair, half, model, friction, g))
     return acc
 
 

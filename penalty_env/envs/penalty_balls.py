@@ -1,0 +1,417 @@
+"""PenaltyBalls: push a ball to a goal in a spherical bowl, on the penalty-contact physics core.
+
+``PenaltyBallsEnv`` is the Gymnasium env; ``PenaltyBallsVectorEnv`` is its native vector twin
+(all worlds stepped in one Numba call). Both drive one :class:`~penalty_env.envs.scene.PenaltyBallsScene`,
+as does the SB3 adapter (:mod:`penalty_env.sb3`), so all three produce the same episodes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import error, logger
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from . import _kernels as KE
+from .render import HumanWindow, Renderer
+from .scene import PARAMETERS, PenaltyBallsScene
+
+__all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS"]
+
+MAX_EPISODE_STEPS = 150  # registered for both ids: 6 s of simulated time at the default 0.04 s
+
+
+def _render_fps(control_period: float) -> int:
+    return max(1, round(1.0 / control_period))
+
+
+def _parameters_table() -> str:
+    rows = ["    | Parameter | Default | Allowed | Description |", "    |---|---|---|---|"]
+    for name, (default, lo, hi, meaning) in PARAMETERS.items():
+        rows.append(f"    | `{name}` | {default} | [{lo}, {hi}] | {meaning} |")
+    return "\n".join(rows)
+
+
+def _coerce_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """An action as a float array of ``shape``, or a ValueError that says what was wrong."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"action must be an array of numbers with shape {shape}, got {action!r}") from None
+    if a.shape != shape:
+        raise ValueError(f"action must have shape {shape} (one throttle per horizontal axis), got shape {a.shape}")
+    return a
+
+
+def _check_options(options: dict[str, Any] | None, allowed: tuple[str, ...] = ()) -> None:
+    if options:
+        unknown = sorted(set(options) - set(allowed))
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {unknown}; PenaltyBalls accepts {list(allowed) or 'none'}")
+
+
+class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
+    """
+    ## Description
+
+    A pusher sphere and a ball rest in a spherical bowl (the course's terrain: the inside of a
+    sphere of radius 8 m, gravity down). The agent drives the pusher with a horizontal motor and
+    must push the ball onto a goal marked on the terrain. Every contact (pusher, ball, optional
+    obstacle balls, terrain) is a penalty spring-dashpot with regularised Coulomb friction, stepped
+    by the project's Numba core (``penalty_env.physics``). Balls slide; they do not spin.
+
+    `PenaltyBalls-v0` is 3D. `PenaltyBalls2D-v0` is the same task in the bowl's vertical slice
+    (circles on a curve, the 2D kernels): there the pusher cannot pass the ball, so it starts on
+    the far side of the ball from the goal.
+
+    ## Action Space
+
+    `Box(-1, 1, (d - 1,), float32)`: one motor throttle `a_k` per horizontal axis (x, y in 3D; x
+    in 2D). The pusher feels the force `max_force * (a_k - v_k / max_speed)` along axis k, held for
+    the control period: a DC motor's linear force-speed law (full force at rest, none at the top
+    speed), so the pusher's self-driven speed stays below `max_speed`. No vertical force: the
+    pusher stays on the terrain. Finite values outside [-1, 1] are clipped; an action of the wrong
+    shape, or with NaN or inf, raises `ValueError`.
+
+    ## Observation Space
+
+    `Box(float32)` of size `7 d + 2 d n_obstacles` (21 in 3D, 14 in 2D without obstacles). Each
+    entry is clipped to its bounds, which no physical state reaches. Positions are relative to the
+    bowl's lowest point (the origin); the last axis is up; R is `bowl_radius`.
+
+    | Index | Observation | Min | Max |
+    |---|---|---|---|
+    | 0 : d | pusher position | -R (up: 0) | R (up: 2R) |
+    | d : 2d | pusher velocity, m/s | -v_bound | v_bound |
+    | 2d : 3d | ball position | -R (up: 0) | R (up: 2R) |
+    | 3d : 4d | ball velocity | -v_bound | v_bound |
+    | 4d : 5d | goal position (a resting ball's centre at the goal) | -R (up: 0) | R (up: 2R) |
+    | 5d : 6d | ball - pusher | -2R | 2R |
+    | 6d : 7d | goal - ball | -2R | 2R |
+    | 7d + 2dj : 7d + 2dj + d | obstacle j position | -R (up: 0) | R (up: 2R) |
+    | 7d + 2dj + d : 7d + 2d(j+1) | obstacle j velocity | -v_bound | v_bound |
+
+    `v_bound = max(10 max_speed, sqrt(4 g R))` (the speed of a fall through the bowl's height).
+
+    ## Rewards
+
+    Dense, potential-based shaping plus a success bonus. `distance` is the ball-goal distance;
+    `pusher_distance` is the pusher's distance to the *push point*, one contact distance behind the
+    ball on the goal-ball line (where a pusher moving toward the goal pushes the ball at it).
+
+    | Term (`info` key) | Value per step |
+    |---|---|
+    | `reward_goal` | 10 x (previous `distance` - `distance`): +10 per metre the ball gains |
+    | `reward_reach` | 1 x (previous `pusher_distance` - `pusher_distance`) |
+    | `reward_success` | +10 on the step the ball reaches the goal |
+
+    The reward is their sum (a Python float); an episode's shaping adds up to the progress made,
+    so a successful push of 0.4 to 0.8 m earns about 14 to 18. `info` also holds `distance`,
+    `pusher_distance`, `is_success` (bool; SB3's `EvalCallback` reads it) and `max_overlap`, the
+    physics diagnostic: the largest contact overlap as a fraction of the smaller radius.
+
+    ## Starting State
+
+    Every body starts at rest on the terrain (sunk by its resting overlap m g / ks). All draws
+    come from the env's `np_random`, in this order:
+
+    | Body | 3D | 2D |
+    |---|---|---|
+    | ball | uniform in the disc of radius 0.5 m around the bottom | uniform in [-0.5, 0.5] m |
+    | goal | 0.4 to 0.8 m from the ball (uniform), uniform direction | same distance, random side |
+    | pusher | surface gap 0.1 to 0.4 m from the ball (uniform), uniform direction | same gap, on the far side from the goal |
+    | obstacles | uniform in the disc of radius 1.2 m, >= 0.05 m from every other ball and clear of the goal circle | uniform in [-1.5, 1.5] m, same clearances |
+
+    ## Episode End
+
+    1. Termination (success): the ball's centre is within `goal_tolerance` (0.1 m) of the goal.
+    2. Truncation: 150 steps (6 s of simulated time), from the registered `max_episode_steps`.
+
+    `terminated` and `truncated` are Python bools. A random policy succeeds in about 1% of
+    episodes (3D; about 3% in 2D).
+
+    ## Physics
+
+    Derived from the scene, not set by hand (defaults in brackets): the contact stiffness `ks`
+    keeps a head-on pusher-ball impact at `max_speed` under `penetration_tolerance` x the smaller
+    radius (ks = m_eff v^2 / delta^2 [1481 N/m]); the dashpots give the impact the chosen
+    `restitution` (normal force clipped at zero: no pull at separation); the substep `dt` is the
+    core's stability limit rounded down to divide `control_period` [0.01 s x 4 substeps per
+    0.04 s step]; friction is regularised Coulomb with the largest viscous slope `kf` that brings
+    the lightest contact's sliding to rest in one substep without overshoot [33 N s/m]. A ball
+    pushed to 1 m/s slides about 17 cm before friction stops it. `env.unwrapped.scene.describe()`
+    prints the derived values.
+
+    ## Arguments
+
+    `gymnasium.make("PenaltyBalls-v0", render_mode=None, **kwargs)`; each keyword is checked, and
+    a value outside its range raises `ValueError` naming the range. `max_episode_steps` sets the
+    episode length (the `TimeLimit`).
+
+    {parameters}
+
+    Also: `max_force / max_speed * control_period / pusher_mass` must be <= 1 (the held motor
+    feedback must not overshoot), and the obstacles must fit their start region (at most 8 of the
+    default size in 3D, 1 in 2D).
+
+    ## Rendering
+
+    `render_mode="rgb_array"` returns a uint8 `(render_height, render_width, 3)` frame (3D: top
+    view with shaded spheres, drop shadows and terrain contour lines; 2D: side view);
+    `"human"` shows it in a pygame window (`pip install "penalty-env[render]"`) at
+    `metadata["render_fps"]` (1 / `control_period`).
+
+    ## Vectorized environment
+
+    `gymnasium.make_vec("PenaltyBalls-v0", num_envs=N)` returns :class:`PenaltyBallsVectorEnv`:
+    all N worlds stepped in one Numba call, with the same episodes as N single envs seeded
+    `seed + i`. `penalty_env.sb3.make_vec_env` gives the same worlds as an SB3 `VecEnv`.
+
+    ## Version History
+
+    * v0: Initial version.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": _render_fps(PARAMETERS["control_period"][0])}
+
+    def __init__(self, dim: int = 3, render_mode: str | None = None, **kwargs: Any) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.scene = PenaltyBallsScene(1, dim=dim, **kwargs)
+        self.dim = self.scene.dim
+        self.render_mode = render_mode
+        self.metadata = dict(self.metadata, render_fps=_render_fps(self.scene.control_period))
+        self.action_space = self.scene.action_space
+        self.observation_space = self.scene.observation_space
+        self._action_shape = self.action_space.shape
+        self._actions = self.scene.actions
+        self._out = self.scene.out
+        self._obs = self.scene.obs
+        self._needs_reset = True
+        self._renderer: Renderer | None = None
+        self._window: HumanWindow | None = None
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._needs_reset:
+            raise error.ResetNeeded("Cannot call PenaltyBallsEnv.step() before reset()")
+        # fast path: a float array of the right shape is copied straight into the kernel's buffer
+        if type(action) is not np.ndarray or action.shape != self._action_shape or action.dtype.kind != "f":
+            action = _coerce_action(action, self._action_shape)
+        self._actions[0] = action
+        self.scene.step()  # NaN / inf actions raise ValueError here, before anything moves
+        o = self._out[0].tolist()
+        info = {
+            "reward_goal": o[KE.O_REWARD_GOAL],
+            "reward_reach": o[KE.O_REWARD_REACH],
+            "reward_success": o[KE.O_REWARD_SUCCESS],
+            "distance": o[KE.O_DISTANCE],
+            "pusher_distance": o[KE.O_PUSHER_DISTANCE],
+            "max_overlap": o[KE.O_MAX_OVERLAP],
+            "is_success": o[KE.O_SUCCESS] > 0.5,
+        }
+        if self.render_mode == "human":
+            self.render()
+        return self._obs[0].copy(), o[KE.O_REWARD], info["is_success"], False, info
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        _check_options(options)
+        self.scene.reset_worlds([0], [self.np_random])
+        self._needs_reset = False
+        if self.render_mode == "human":
+            self.render()
+        return self._obs[0].copy(), self.scene.info(0)
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            logger.warn(
+                "You are calling render method without specifying any render mode. "
+                'Pass render_mode="rgb_array" or "human" when making the env.'
+            )
+            return None
+        if self._renderer is None:
+            self._renderer = Renderer(self.scene, self.scene.params["render_width"], self.scene.params["render_height"])
+        frame = self._renderer.frame(0)
+        if self.render_mode == "rgb_array":
+            return frame
+        if self._window is None:
+            self._window = HumanWindow(frame.shape[1], frame.shape[0], self.metadata["render_fps"],
+                                       title=f"PenaltyBalls ({self.dim}D)")
+        self._window.show(frame)
+        return None
+
+    def close(self) -> None:
+        if self._window is not None:
+            self._window.close()
+            self._window = None
+
+
+PenaltyBallsEnv.__doc__ = PenaltyBallsEnv.__doc__.replace("{parameters}", _parameters_table().strip())
+
+
+class PenaltyBallsVectorEnv(VectorEnv):
+    """N PenaltyBalls worlds stepped together: one Numba call per step (threads for large N).
+
+    The same task, spaces and keyword arguments as :class:`PenaltyBallsEnv`, plus
+    ``num_envs``, ``max_episode_steps`` (the vector env truncates episodes itself) and
+    ``autoreset_mode`` (default ``NEXT_STEP``, Gymnasium's default; ``SAME_STEP`` and
+    ``DISABLED`` are supported as Gymnasium's ``SyncVectorEnv`` implements them). World i draws
+    its starts from its own generator, seeded ``seed + i`` by ``reset(seed=seed)``, so the
+    episodes are exactly those of N single envs seeded ``seed + i`` (and of a ``SyncVectorEnv``
+    of them, infos included). ``render()`` returns one frame per world.
+    """
+
+    metadata = {
+        "render_modes": ["rgb_array"],
+        "render_fps": _render_fps(PARAMETERS["control_period"][0]),
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        dim: int = 3,
+        max_episode_steps: int = MAX_EPISODE_STEPS,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **kwargs: Any,
+    ) -> None:
+        if isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, (int, np.integer)) or max_episode_steps < 1:
+            raise ValueError(f"max_episode_steps must be an int >= 1, got {max_episode_steps!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        try:
+            autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ValueError(
+                f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}"
+            ) from None
+        self.scene = PenaltyBallsScene(num_envs, dim=dim, **kwargs)
+        self.num_envs = self.scene.n_worlds
+        self.dim = self.scene.dim
+        self.max_episode_steps = int(max_episode_steps)
+        self.render_mode = render_mode
+        self.autoreset_mode = autoreset_mode
+        self.metadata = dict(
+            self.metadata, render_fps=_render_fps(self.scene.control_period), autoreset_mode=autoreset_mode
+        )
+        self.single_action_space = self.scene.action_space
+        self.single_observation_space = self.scene.observation_space
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        N = self.num_envs
+        self._rngs: list[np.random.Generator | None] = [None] * N
+        self._steps = np.zeros(N, dtype=np.int64)
+        self._done = np.zeros(N, dtype=np.bool_)  # episode over: the world awaits its reset
+        self._started = False
+        self._renderer: Renderer | None = None
+        self._ones = np.ones(N, dtype=np.bool_)
+
+    # ------------------------------------------------------------------ Gymnasium API
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
+        N = self.num_envs
+        if seed is None or isinstance(seed, (int, np.integer)):
+            super().reset(seed=None if seed is None else int(seed))
+            seeds = [None] * N if seed is None else [int(seed) + i for i in range(N)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != N:
+                raise ValueError(f"seed must be None, an int or a list of {N} seeds (one per world), got {len(seeds)}")
+        options = dict(options or {})
+        mask = options.pop("reset_mask", None)
+        _check_options(options)
+        if mask is None:
+            mask = self._ones
+        elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (N,) and mask.any()):
+            raise ValueError(f"options['reset_mask'] must be a bool array of shape ({N},) with a True value, got {mask!r}")
+        idx = np.flatnonzero(mask)
+        for i in idx:
+            if seeds[i] is not None or self._rngs[i] is None:
+                self._rngs[i] = seeding.np_random(seeds[i])[0]
+        self.scene.reset_worlds(idx, [self._rngs[i] for i in idx])
+        self._steps[idx] = 0
+        self._done[idx] = False
+        self._started = True
+        return self.scene.obs.copy(), self._infos(mask)
+
+    def step(self, actions: np.ndarray):
+        if not self._started:
+            raise error.ResetNeeded("Cannot call PenaltyBallsVectorEnv.step() before reset()")
+        scene = self.scene
+        shape = (self.num_envs, scene.action_size)
+        if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.kind != "f":
+            actions = _coerce_action(actions, shape)
+        mode = self.autoreset_mode
+        resetting = self._done if mode == AutoresetMode.NEXT_STEP else None
+        if mode == AutoresetMode.DISABLED and self._done.any():
+            raise RuntimeError(
+                f"world(s) {np.flatnonzero(self._done)[:10].tolist()} ended their episode; with "
+                f"autoreset_mode DISABLED, reset them (reset(options={{'reset_mask': mask}})) before stepping"
+            )
+        finite = np.isfinite(actions).all(axis=1)
+        if not finite.all():
+            bad = ~finite if resetting is None else ~finite & ~resetting
+            if bad.any():  # refuse before any world moves or resets
+                b = int(np.flatnonzero(bad)[0])
+                raise ValueError(f"the action of world {b} contains NaN or inf: {actions[b].tolist()}")
+        scene.actions[:] = actions
+        if resetting is not None and resetting.any():
+            idx = np.flatnonzero(resetting)
+            scene.reset_worlds(idx, [self._rngs[i] for i in idx], observe=False)  # stepped as "just reset"
+            scene.step()
+            scene._stepping[idx] = True
+            self._steps[idx] = -1  # += 1 below
+        else:
+            scene.step()
+        self._steps += 1
+        out = scene.out
+        terminated = out[:, KE.O_SUCCESS] > 0.5
+        truncated = self._steps >= self.max_episode_steps
+        rewards = out[:, KE.O_REWARD].copy()
+        done = terminated | truncated
+        if mode == AutoresetMode.SAME_STEP and done.any():
+            idx = np.flatnonzero(done)
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i in idx:
+                final_obs[i] = scene.obs[i].copy()
+            final_info = self._infos(done)
+            scene.reset_worlds(idx, [self._rngs[i] for i in idx])
+            self._steps[idx] = 0
+            infos = self._infos(self._ones)
+            infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
+            infos["final_info"], infos["_final_info"] = final_info, done.copy()
+            self._done[:] = False
+        else:
+            infos = self._infos(self._ones)
+            self._done[:] = done
+        return scene.obs.copy(), rewards, terminated, truncated, infos
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        if self.render_mode is None:
+            logger.warn('You are calling render without a render mode; pass render_mode="rgb_array" to make_vec.')
+            return None
+        if self._renderer is None:
+            p = self.scene.params
+            self._renderer = Renderer(self.scene, p["render_width"], p["render_height"])
+        return tuple(self._renderer.frame(b) for b in range(self.num_envs))
+
+    # ------------------------------------------------------------------ helpers
+    def _infos(self, mask: np.ndarray) -> dict[str, Any]:
+        """Gymnasium's vector info dict for the worlds in ``mask``: one array per key and the
+        ``_key`` mask, as ``SyncVectorEnv`` builds it from the single envs' infos."""
+        out = self.scene.out
+        infos: dict[str, Any] = {}
+        every = mask.all()
+        for key, col in zip(PenaltyBallsScene.INFO_KEYS[:-1], PenaltyBallsScene.INFO_COLUMNS):
+            infos[key] = out[:, col].copy() if every else np.where(mask, out[:, col], 0.0)
+            infos["_" + key] = mask.copy()
+        infos["is_success"] = (out[:, KE.O_SUCCESS] > 0.5) & mask
+        infos["_is_success"] = mask.copy()
+        return infos
+
+    def __repr__(self) -> str:
+        return f"PenaltyBallsVectorEnv({self.spec.id if self.spec else f'{self.dim}D'}, num_envs={self.num_envs})"
