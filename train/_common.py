@@ -1,0 +1,118 @@
+"""Shared pieces of ``train_ppo.py`` and ``evaluate.py``: environments, evaluation, GIFs."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+# Held-out seeds: training worlds use seed + i (i < n_envs); evaluation during training uses
+# EVAL_SEED_OFFSET + seed + i; the final report uses FINAL_SEED_OFFSET + seed + i. The ranges are
+# far apart, so no evaluation episode starts from a training seed.
+EVAL_SEED_OFFSET = 1_000_000
+FINAL_SEED_OFFSET = 2_000_000
+
+
+def parse_env_kwargs(pairs: list[str]) -> dict[str, Any]:
+    """``["n_obstacles=2", "goal_tolerance=0.1"]`` -> dict, values parsed as JSON when possible."""
+    out: dict[str, Any] = {}
+    for pair in pairs or []:
+        if "=" not in pair:
+            raise SystemExit(f"--env-kwarg expects key=value, got {pair!r}")
+        key, raw = pair.split("=", 1)
+        try:
+            out[key] = json.loads(raw)
+        except json.JSONDecodeError:
+            out[key] = raw
+    return out
+
+
+def make_env(env_id: str, n_envs: int, seed: int, env_kwargs: dict[str, Any], render_mode: str | None = None):
+    """Our batched SB3 VecEnv (one Numba call steps all worlds), wrapped in VecMonitor."""
+    from penalty_env.sb3 import make_vec_env
+
+    kwargs = dict(env_kwargs)
+    if render_mode is not None:
+        kwargs["render_mode"] = render_mode
+    return make_vec_env(env_id=env_id, n_envs=n_envs, seed=seed, **kwargs)
+
+
+def run_episodes(venv, act: Callable[[np.ndarray], np.ndarray], n_episodes: int) -> dict[str, Any]:
+    """Run exactly ``n_episodes`` episodes, the same number in each world (as SB3's
+    ``evaluate_policy`` does, so short successful episodes are not over-counted).
+
+    Returns the success rate, mean and std of the episode return, and the per-episode lists.
+    """
+    n_envs = venv.num_envs
+    per_env = np.array([(n_episodes + i) // n_envs for i in range(n_envs)])
+    done_counts = np.zeros(n_envs, dtype=int)
+    returns, successes = [], []
+    running = np.zeros(n_envs)
+    obs = venv.reset()
+    while (done_counts < per_env).any():
+        actions = act(obs)
+        obs, rewards, dones, infos = venv.step(actions)
+        running += rewards
+        for i in np.flatnonzero(dones):
+            if done_counts[i] < per_env[i]:
+                returns.append(float(running[i]))
+                successes.append(bool(infos[i].get("is_success", False)))
+                done_counts[i] += 1
+            running[i] = 0.0
+    return {
+        "success_rate": float(np.mean(successes)),
+        "mean_return": float(np.mean(returns)),
+        "std_return": float(np.std(returns)),
+        "episodes": len(returns),
+        "returns": returns,
+        "successes": successes,
+    }
+
+
+def random_policy(action_space, seed: int) -> Callable[[np.ndarray], np.ndarray]:
+    rng = np.random.default_rng(seed)
+    low, high = action_space.low, action_space.high
+
+    def act(obs: np.ndarray) -> np.ndarray:
+        return rng.uniform(low, high, size=(len(obs),) + low.shape).astype(np.float32)
+
+    return act
+
+
+def model_policy(model, vecnorm=None) -> Callable[[np.ndarray], np.ndarray]:
+    def act(obs: np.ndarray) -> np.ndarray:
+        if vecnorm is not None:
+            obs = vecnorm.normalize_obs(obs)
+        actions, _ = model.predict(obs, deterministic=True)
+        return actions
+
+    return act
+
+
+def record_gif(env_id: str, env_kwargs: dict[str, Any], act, path: Path, seed: int, episodes: int = 2,
+               fps: int = 20, max_frames: int = 400) -> int:
+    """Roll out ``act`` in a single rendered env and save the frames as a GIF (Pillow)."""
+    import gymnasium as gym
+    from PIL import Image
+
+    import penalty_env  # noqa: F401  (registers the ids)
+
+    env = gym.make(env_id, render_mode="rgb_array", **env_kwargs)
+    frames = []
+    for ep in range(episodes):
+        obs, _ = env.reset(seed=seed + ep)
+        frames.append(env.render())
+        done = False
+        while not done and len(frames) < max_frames:
+            action = act(obs[None])[0]
+            obs, _, terminated, truncated, _ = env.step(action)
+            frames.append(env.render())
+            done = terminated or truncated
+    env.close()
+    images = [Image.fromarray(f) for f in frames[::max(1, math.ceil(len(frames) / max_frames))]]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0, optimize=True)
+    return len(images)

@@ -1,0 +1,58 @@
+#!/usr/bin/env python
+"""Evaluate a run folder written by ``train_ppo.py`` on fresh seeds.
+
+    python train/evaluate.py runs/ppo-PenaltyBalls-v0-seed0
+    python train/evaluate.py RUN --episodes 200 --seed 3000000 --video runs/eval.gif
+
+Prints the success rate and the mean return of the trained policy and of a random policy on the
+same seeds; ``--video`` renders a GIF of the trained policy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import _common as C  # noqa: E402
+
+
+def main(argv=None) -> dict:
+    p = argparse.ArgumentParser(prog="evaluate.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("run", type=Path, help="run folder (model.zip, vecnormalize.pkl, summary.json)")
+    p.add_argument("--episodes", type=int, default=100, help="episodes (default: %(default)s)")
+    p.add_argument("--seed", type=int, default=3_000_000, help="first seed (default: %(default)s, unused by training)")
+    p.add_argument("--n-envs", type=int, default=20, help="worlds evaluated at once (default: %(default)s)")
+    p.add_argument("--video", type=Path, default=None, help="write a GIF of the policy here")
+    args = p.parse_args(argv)
+
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    summary = json.loads((args.run / "summary.json").read_text())
+    env_id, env_kwargs = summary["env_id"], summary.get("env_kwargs", {})
+    model = PPO.load(args.run / "model.zip", device="cpu")
+    n_envs = min(args.n_envs, args.episodes)
+    venv = C.make_env(env_id, n_envs, args.seed, env_kwargs)
+    vecnorm = None
+    if (args.run / "vecnormalize.pkl").exists():
+        vecnorm = VecNormalize.load(str(args.run / "vecnormalize.pkl"), venv)
+        vecnorm.training = False
+        vecnorm.norm_reward = False
+    trained = C.run_episodes(venv, C.model_policy(model, vecnorm), args.episodes)
+    probe = C.make_env(env_id, n_envs, args.seed, env_kwargs)
+    rand = C.run_episodes(probe, C.random_policy(probe.action_space, args.seed), args.episodes)
+    print(f"{env_id}: success {trained['success_rate']:.1%}, mean return {trained['mean_return']:.3f} "
+          f"± {trained['std_return']:.3f} over {trained['episodes']} episodes (seeds {args.seed}..{args.seed + n_envs - 1}); "
+          f"random policy: success {rand['success_rate']:.1%}, mean return {rand['mean_return']:.3f}")
+    if args.video:
+        C.record_gif(env_id, env_kwargs, C.model_policy(model, vecnorm), args.video, seed=args.seed)
+        print(f"video: {args.video}")
+    return {"trained": trained, "random": rand}
+
+
+if __name__ == "__main__":
+    main()
