@@ -36,9 +36,9 @@ N_PHYS = P_G + 3  # gravity takes the last D entries (D <= 3)
 ) = range(9)
 N_ENVP = 9
 
-# ``out``: per-world results of the last step (float64 array, (B, N_OUT))
+# ``out``: per-world results of the last step (float64 array, (B, N_OUT)). The info entries come
+# first and in the info dict's order, so the vector env copies them out as one slice.
 (
-    O_REWARD,
     O_REWARD_GOAL,
     O_REWARD_REACH,
     O_REWARD_SUCCESS,
@@ -46,7 +46,9 @@ N_ENVP = 9
     O_PUSHER_DISTANCE,
     O_MAX_OVERLAP,
     O_SUCCESS,
+    O_REWARD,
 ) = range(8)
+N_INFO = 7  # out[:, :N_INFO] are the info dict's values (is_success as 0.0 / 1.0)
 N_OUT = 8
 
 # return codes of ``step_worlds``
@@ -130,14 +132,14 @@ def _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_
         b = worlds[t]
         status[b] = 0
         if stepping[b]:
-            # the pusher's motor: F_max (a - v / v_max) along each horizontal axis, held for
-            # the control period (a DC motor's linear force-speed law; clipped throttle)
+            # the pusher's motor: F_max (a - v / v_max) along each horizontal axis (a DC motor's
+            # linear force-speed law, throttle clipped to [-1, 1]), re-evaluated every substep
             for i in range(n):
                 for k in range(D):
                     ext[b, i, k] = 0.0
-            for k in range(na):
-                ext[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) - v[b, 0, k] * inv_vmax)
             for _ in range(substeps):
+                for k in range(na):
+                    ext[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) - v[b, 0, k] * inv_vmax)
                 K.symplectic_euler_step(b, dt, x, v, work, ext, None, model, friction, g)
             finite = True
             for i in range(n):
@@ -192,3 +194,16 @@ def step_worlds_3d(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shap
     g = (phys[P_G], phys[P_G + 1], phys[P_G + 2])
     return _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
                         shape_radius, phys, envp, goal, prev, obs, out, status, g)
+
+
+@njit(nogil=True)
+def first_bad_action(act, skip):
+    """Index of the first world whose action holds NaN or inf (worlds with ``skip`` set are
+    ignored: their action is not used), or -1."""
+    for b in range(act.shape[0]):
+        if skip[b]:
+            continue
+        for k in range(act.shape[1]):
+            if not np.isfinite(act[b, k]):
+                return b
+    return -1

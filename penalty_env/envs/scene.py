@@ -15,7 +15,6 @@ Units are SI (metres, kilograms, seconds, newtons). The last axis is up.
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Sequence
 
@@ -24,7 +23,6 @@ import numpy as np
 from gymnasium import spaces
 
 from ..physics import Bowl, World, theory
-from ..physics import kernels as _core
 from . import _kernels as KE
 
 __all__ = ["PenaltyBallsScene", "PARAMETERS", "check_parameters"]
@@ -44,7 +42,7 @@ PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
     "restitution": (0.3, 0.05, 1.0, "coefficient of restitution of a pusher-ball impact"),
     "penetration_tolerance": (0.1, 0.01, 0.5, "overlap / radius of a pusher-ball impact at max_speed"),
     "max_speed": (1.0, 0.1, 5.0, "pusher motor's no-load speed, m/s"),
-    "max_force": (15.0, 0.5, 500.0, "pusher motor's stall force, N"),
+    "max_force": (20.0, 0.5, 500.0, "pusher motor's stall force, N"),
     "goal_tolerance": (0.1, 0.02, 0.3, "success radius around the goal, m"),
     "control_period": (0.04, 0.005, 0.25, "simulated seconds per env step"),
     "bowl_radius": (8.0, 3.0, 100.0, "radius of the spherical terrain, m"),
@@ -110,15 +108,6 @@ def check_parameters(dim: int, params: dict[str, Any]) -> dict[str, Any]:
             if isinstance(value, bool) or not (math.isfinite(v) and lo <= v <= hi):
                 raise ValueError(f"{name} ({meaning}) must be a number in [{lo}, {hi}], got {value!r}")
             out[name] = v
-    # the motor's speed feedback F_max/v_max is held for a control period (explicit): keep it
-    # deadbeat-or-slower, or the pusher's speed would oscillate from step to step
-    gain = out["max_force"] / out["max_speed"] * out["control_period"] / out["pusher_mass"]
-    if gain > 1.0:
-        raise ValueError(
-            f"max_force / max_speed * control_period / pusher_mass = {gain:.3g} must be <= 1: the "
-            f"motor's speed feedback is held for a control period and would overshoot. Lower "
-            f"max_force or control_period, or raise max_speed or pusher_mass."
-        )
     n_obs = out["n_obstacles"]
     if n_obs:
         region = OBSTACLE_REGION[dim]
@@ -164,8 +153,10 @@ class PenaltyBallsScene:
         m_p, m_b = p["pusher_mass"], p["ball_mass"]
         m_pb = m_p * m_b / (m_p + m_b)
         delta = p["penetration_tolerance"] * min(p["pusher_radius"], p["ball_radius"])
-        # a head-on pusher-ball impact at the motor's top speed overlaps by at most delta
-        self.ks = theory.stiffness_for_penetration(m_pb, p["max_speed"], delta)
+        # neither a head-on pusher-ball impact at the motor's top speed (ks >= m_eff v^2 / delta^2)
+        # nor the motor pressing the pusher into a blocked ball at full force (ks >= F / delta)
+        # overlaps by more than delta
+        self.ks = max(theory.stiffness_for_penetration(m_pb, p["max_speed"], delta), p["max_force"] / delta)
         self.kd = theory.damping_for_restitution(p["restitution"], self.ks, m_pb)
         # terrain: same spring; the ball's bounce off the terrain has the same restitution
         self.ks_terrain = self.ks
@@ -186,6 +177,15 @@ class PenaltyBallsScene:
         m_sorted = np.sort(self.masses)
         m_eff_min = m_sorted[0] * m_sorted[1] / (m_sorted[0] + m_sorted[1])
         self.kf = m_eff_min / self.dt
+        # the motor's speed feedback F_max / v_max acts like a dashpot on the pusher, explicit in
+        # each substep: keep it from overshooting (c dt / m <= 1)
+        feedback = p["max_force"] / p["max_speed"] * self.dt / p["pusher_mass"]
+        if feedback > 1.0:
+            raise ValueError(
+                f"max_force / max_speed * dt / pusher_mass = {feedback:.3g} must be <= 1 (dt = {self.dt:.3g} s, "
+                f"the physics substep): the motor's speed feedback would overshoot. Lower max_force, or "
+                f"raise max_speed or pusher_mass."
+            )
         self.mu = p["friction"]
         self.world = World(start, self.radii, self.masses, dt=self.dt, mu=self.mu, kf=self.kf, **common)
 
@@ -219,7 +219,11 @@ class PenaltyBallsScene:
         self._envp[KE.E_POS_BOUND] = pos_bound
         self._envp[KE.E_VEL_BOUND] = self.vel_bound
         # resting overlap m g / ks puts each ball at rest on the terrain at the start
-        self._rest_depth = self.masses * self.gravity / self.ks_terrain
+        rest_depth = self.masses * self.gravity / self.ks_terrain
+        # a resting centre sits at radius - m g / ks above the terrain (per ball; the goal as the ball)
+        self._rest_radii = np.append(self.radii - rest_depth, self.radii[1] - rest_depth[1])
+        self._radii_list = self.radii.tolist()
+        self._contact = float(self.radii[0] + self.radii[1])
 
         # --- per-world state and output buffers, allocated once
         self.goal = np.zeros((B, d))
@@ -259,12 +263,13 @@ class PenaltyBallsScene:
         return np.concatenate(low).astype(np.float32), np.concatenate(high).astype(np.float32)
 
     def _kernel_args(self) -> tuple:
-        """The arrays the kernel steps: the World's own state and model (the one place this
-        module reaches into ``World``: see the module notes in the project report)."""
-        w = self.world
-        m = w._model
-        x, v = w._x, w._v  # (B, n, d), written in place by the kernel and by set_state
-        work, ext = w._work, w._ext
+        """The arrays the kernel steps: the World's own state and model (``World.kernel_state``),
+        so ``World.positions``, ``set_state``, ``energy`` and ``max_penetration`` see what the env
+        steps. The env's kernel steps them with the core's own ``symplectic_euler_step``."""
+        ks = self.world.kernel_state()
+        m = ks.model
+        x, v = ks.x, ks.v  # (B, n, d), written in place by the kernel and by set_state
+        work, ext = ks.work, ks.ext
         return (x, v, work, ext, m.radii, m.inv_mass, m.shape_kind, m.shape_center, m.shape_radius,
                 self._phys, self._envp, self.goal, self._prev, self.obs, self.out, self._status)
 
@@ -308,70 +313,85 @@ class PenaltyBallsScene:
         and (``observe``) compute its observation. With ``observe=False`` the world's flag is left
         off, so the next ``step`` observes it without stepping it."""
         idx = np.asarray(worlds, dtype=np.int64)
-        k = idx.size
-        pos = np.empty((k, self.n_balls, self.dim))
-        for j in range(k):
-            self._sample(rngs[j], pos[j], self.goal[idx[j]])
-        self.world.set_state(positions=pos, velocities=self._velocity_zeros[:k], worlds=idx)
+        # horizontal positions (k, n + 1, d - 1): the balls, then the goal; lifted onto the
+        # terrain together below
+        flat = np.array([self._sample(rngs[j]) for j in range(idx.size)]).reshape(idx.size, self.n_balls + 1, -1)
+        pos = self._on_terrain(flat)
+        self.goal[idx] = pos[:, -1]
+        self.world.set_state(positions=pos[:, :-1], velocities=self._velocity_zeros[: idx.size], worlds=idx)
         self._stepping[idx] = False
         if observe:
             self._run(idx, self._split(idx))
             self._stepping[idx] = True
 
-    def _surface(self, h: np.ndarray, ball: int, out: np.ndarray) -> None:
-        """Centre of ball ``ball`` resting on the terrain at horizontal position ``h``."""
+    def _on_terrain(self, h: np.ndarray) -> np.ndarray:
+        """Centres resting on the terrain at horizontal positions ``h`` (..., n + 1, d - 1): each
+        ball sunk by its resting overlap m g / ks; the last slot (the goal) as the ball."""
         R = self.bowl_radius
-        depth = R - self.radii[ball] + self._rest_depth[ball]
-        out[: self.dim - 1] = h
-        out[self.dim - 1] = R - math.sqrt(depth * depth - float(h @ h))
+        depth = R - self._rest_radii  # distance of a resting centre from the bowl's centre
+        z = R - np.sqrt(depth**2 - np.sum(h * h, axis=-1))
+        return np.concatenate([h, z[..., None]], axis=-1)
 
-    def _sample(self, rng: np.random.Generator, pos: np.ndarray, goal: np.ndarray) -> None:
-        """One start: the draws (documented in the env's "Starting State") in a fixed order."""
-        d = self.dim
-        r_p, r_b = self.radii[0], self.radii[1]
-        if d == 3:
-            u = rng.random(6)
+    def _sample(self, rng: np.random.Generator) -> list[float]:
+        """One start's horizontal coordinates, flat: pusher, ball, obstacles, goal. The draws
+        (documented in the env's "Starting State") come in a fixed order. Plain floats: a start is
+        a handful of scalars, and numpy's per-call cost would dominate."""
+        contact = self._contact
+        g0, g1 = GOAL_DISTANCE
+        p0, p1 = PUSHER_GAP
+        if self.dim == 3:
+            u = rng.random(6).tolist()
             rho, phi = BALL_START_RADIUS * math.sqrt(u[0]), 2.0 * math.pi * u[1]
-            ball = np.array([rho * math.cos(phi), rho * math.sin(phi)])
-            dist, phi = GOAL_DISTANCE[0] + (GOAL_DISTANCE[1] - GOAL_DISTANCE[0]) * u[2], 2.0 * math.pi * u[3]
-            target = ball + dist * np.array([math.cos(phi), math.sin(phi)])
-            gap, phi = PUSHER_GAP[0] + (PUSHER_GAP[1] - PUSHER_GAP[0]) * u[4], 2.0 * math.pi * u[5]
-            pusher = ball + (r_p + r_b + gap) * np.array([math.cos(phi), math.sin(phi)])
+            ball = (rho * math.cos(phi), rho * math.sin(phi))
+            dist, phi = g0 + (g1 - g0) * u[2], 2.0 * math.pi * u[3]
+            target = (ball[0] + dist * math.cos(phi), ball[1] + dist * math.sin(phi))
+            gap, phi = p0 + (p1 - p0) * u[4], 2.0 * math.pi * u[5]
+            pusher = (ball[0] + (contact + gap) * math.cos(phi), ball[1] + (contact + gap) * math.sin(phi))
         else:
-            u = rng.random(4)
-            ball = np.array([BALL_START_RADIUS * (2.0 * u[0] - 1.0)])
+            u = rng.random(4).tolist()
+            ball = (BALL_START_RADIUS * (2.0 * u[0] - 1.0),)
             side = 1.0 if u[1] < 0.5 else -1.0
             # on a line the pusher cannot pass the ball: it starts on the far side from the goal
-            target = ball + side * (GOAL_DISTANCE[0] + (GOAL_DISTANCE[1] - GOAL_DISTANCE[0]) * u[2])
-            pusher = ball - side * (r_p + r_b + PUSHER_GAP[0] + (PUSHER_GAP[1] - PUSHER_GAP[0]) * u[3])
-        self._surface(pusher, 0, pos[0])
-        self._surface(ball, 1, pos[1])
-        self._surface(target, 1, goal)
+            target = (ball[0] + side * (g0 + (g1 - g0) * u[2]),)
+            pusher = (ball[0] - side * (contact + p0 + (p1 - p0) * u[3]),)
         placed = [pusher, ball]
+        if self.n_obstacles:
+            self._place_obstacles(rng, placed, target)
+        placed.append(target)
+        return [c for h in placed for c in h]
+
+    def _place_obstacles(self, rng: np.random.Generator, placed: list, target: tuple) -> None:
+        """Rejection sampling: uniform in the obstacle region, clear of every ball and the goal."""
+        d = self.dim
         region = OBSTACLE_REGION[d]
-        r_o = self.radii[2] if self.n_obstacles else 0.0
-        for j in range(2, self.n_balls):
+        radii = self._radii_list
+        r_o = radii[2]
+        goal_clear = r_o + self.goal_tolerance
+        for _ in range(self.n_obstacles):
             for _ in range(OBSTACLE_TRIES):
                 if d == 3:
-                    u = rng.random(2)
+                    u = rng.random(2).tolist()
                     rho, phi = region * math.sqrt(u[0]), 2.0 * math.pi * u[1]
-                    h = np.array([rho * math.cos(phi), rho * math.sin(phi)])
+                    h = (rho * math.cos(phi), rho * math.sin(phi))
                 else:
-                    h = np.array([region * (2.0 * rng.random() - 1.0)])
-                clear = float(np.linalg.norm(h - target)) >= r_o + self.goal_tolerance and all(
-                    float(np.linalg.norm(h - q)) >= r_o + self.radii[i] + OBSTACLE_GAP for i, q in enumerate(placed)
+                    h = (region * (2.0 * rng.random() - 1.0),)
+                clear = math.dist(h, target) >= goal_clear and all(
+                    math.dist(h, q) >= r_o + radii[i] + OBSTACLE_GAP for i, q in enumerate(placed)
                 )
                 if clear:
                     break
             else:  # pragma: no cover - the density check in check_parameters makes this unreachable
                 raise RuntimeError("could not place the obstacles without overlap; use fewer or smaller ones")
             placed.append(h)
-            self._surface(h, j, pos[j])
 
     # ------------------------------------------------------------------ read-out
     def info(self, b: int) -> dict[str, Any]:
         """World b's info dict of the last step or reset (Python scalars)."""
-        o = self.out[b].tolist()
+        return self.info_from_row(self.out[b].tolist())
+
+    @staticmethod
+    def info_from_row(o: list[float]) -> dict[str, Any]:
+        """The info dict of one world's ``out`` row (as a list of floats)."""
         return {
             "reward_goal": o[KE.O_REWARD_GOAL],
             "reward_reach": o[KE.O_REWARD_REACH],
@@ -382,9 +402,8 @@ class PenaltyBallsScene:
             "is_success": o[KE.O_SUCCESS] > 0.5,
         }
 
+    # the info dict's keys, in the order of the kernel's ``out`` columns 0 .. N_INFO - 1
     INFO_KEYS = ("reward_goal", "reward_reach", "reward_success", "distance", "pusher_distance", "max_overlap", "is_success")
-    INFO_COLUMNS = (KE.O_REWARD_GOAL, KE.O_REWARD_REACH, KE.O_REWARD_SUCCESS, KE.O_DISTANCE,
-                    KE.O_PUSHER_DISTANCE, KE.O_MAX_OVERLAP)
 
     def describe(self) -> str:
         """The derived physics, one line."""

@@ -10,16 +10,17 @@ from __future__ import annotations
 import math
 import warnings
 from concurrent.futures import ThreadPoolExecutor
-from typing import Iterable, Sequence
+from typing import Iterable, NamedTuple, Sequence
 
 import numba
 import numpy as np
 
+from . import events as _events
 from . import kernels as K
 from . import theory
 from .shapes import Shape, pack_terrain
 
-__all__ = ["World", "GRID_MIN_BALLS", "LARGE_WORLD_MIN_BALLS", "STABILITY_SAFETY"]
+__all__ = ["World", "KernelState", "GRID_MIN_BALLS", "LARGE_WORLD_MIN_BALLS", "STABILITY_SAFETY"]
 
 # ``broadphase="auto"`` uses the grid from this many balls per world (measured crossover:
 # ``python -m penalty_env.bench core``, section c).
@@ -100,6 +101,19 @@ def _choice(name: str, value, allowed: Iterable[str]) -> str:
     return value
 
 
+class KernelState(NamedTuple):
+    """What ``World.kernel_state()`` returns: the arguments of the kernels' step functions."""
+
+    x: np.ndarray  # (B, n, d) positions
+    v: np.ndarray  # (B, n, d) velocities
+    work: np.ndarray  # (K, B, n, d) integrator scratch
+    ext: np.ndarray  # (B, n, d) external force buffer
+    grid: object  # kernels.Grid or None (all pairs)
+    model: "K.Model"
+    friction: tuple | None  # (mu, kf) or None when off
+    gravity: tuple
+
+
 class World:
     """Balls (spheres in 3D, circles in 2D) with penalty contacts, in static implicit terrain.
 
@@ -114,12 +128,18 @@ class World:
         damping: ``"linear"`` (the seed's dashpot, which pulls at separation) or
             ``"no_tension"`` (the normal force is clipped at zero, as LAMMPS ``limit_damping``).
         mu, kf: regularised Coulomb friction |f_t| = min(kf |v_t|, mu |f_n|); off when mu = 0.
-            ``kf`` defaults to the critical damping of the lightest ball on the terrain.
+            ``kf`` (force per sliding speed) defaults to, and may not exceed, ``m_eff / dt`` of
+            the lightest contact: the explicit limit at which sliding stops in one step.
         integrator: ``explicit_euler``, ``symplectic_euler``, ``velocity_verlet``, ``rk4`` or
             ``implicit_euler`` (linearised backward Euler, conjugate gradients).
         dt: time step (> 0).
         broadphase: ``all_pairs``, ``grid`` or ``auto`` (grid from ``GRID_MIN_BALLS`` balls).
         allow_unstable: skip the stability guard (for stability studies).
+        events: event-located stepping (:mod:`penalty_env.physics.events`): each step stops at
+            every contact switch (a contact beginning or ending) and crosses it, which restores
+            the integrator's order (RK4: 4th order instead of 1st with damping) at the cost of
+            extra force evaluations in the steps that hold a switch. Off by default: then the
+            stepping is exactly the plain path.
 
     Raises:
         ValueError: a bad argument (named in the message), or ``dt`` above the stability limit
@@ -146,6 +166,7 @@ class World:
         dt: float,
         broadphase: str = "auto",
         allow_unstable: bool = False,
+        events: bool = False,
     ) -> None:
         x = _float_array("positions", positions, ndim=(2, 3))
         self._batched = x.ndim == 3
@@ -192,14 +213,25 @@ class World:
         self.kd_terrain = self.kd if kd_terrain is None else _non_negative("kd_terrain", kd_terrain)
         self.damping = _choice("damping", damping, DAMPING_MODES)
         self.mu = _non_negative("mu", mu)
-        m_min = float(self.masses.min())
-        if kf is None:
-            kf = 2.0 * math.sqrt(self.ks_terrain * m_min)
-        self.kf = _positive("kf", kf)
         self.integrator = _choice("integrator", integrator, theory.INTEGRATORS)
         self.dt = _positive("dt", dt)
         self.broadphase = _choice("broadphase", broadphase, BROADPHASES)
         self.allow_unstable = bool(allow_unstable)
+        # Friction's viscous branch -kf v_t is integrated explicitly (also by implicit Euler):
+        # it brings sliding to rest without overshoot only while kf dt / m_eff <= 1 (at 2 it
+        # reverses v_t every step and feeds energy in). The default sits at that limit, which is
+        # the closest a regularised law gets to Coulomb's stick at this dt.
+        self.kf_max = self._lightest_contact_mass() / self.dt
+        if kf is None:
+            kf = self.kf_max
+        self.kf = _positive("kf", kf)
+        if self.mu > 0.0 and self.kf > self.kf_max * (1.0 + 1e-12) and not self.allow_unstable:
+            raise ValueError(
+                f"kf={self.kf:g} is above the explicit friction limit m_eff/dt = {self.kf_max:g} "
+                f"(lightest contact m_eff={self._lightest_contact_mass():g}, dt={self.dt:g}): sliding would "
+                f"overshoot and gain energy. Use kf <= {self.kf_max:g}, a smaller dt, or allow_unstable=True."
+            )
+        self.events = bool(events)
 
         self.use_grid = self.broadphase == "grid" or (self.broadphase == "auto" and n >= GRID_MIN_BALLS)
         self._integ = K.INTEGRATOR_CODES[self.integrator]
@@ -229,6 +261,7 @@ class World:
         self._status = np.zeros(B, dtype=np.int64)
         self._ext = np.zeros((B, n, d))
         self._scalar = np.zeros(B)
+        self._events = _events.allocate(B, n, d) if self.events else None
         if self.use_grid:
             cap = max(4 * n, 64)
             self._grid = K.Grid(
@@ -248,6 +281,12 @@ class World:
             raise ValueError(self._stability_message())
 
     # ---------------------------------------------------------------- stability
+    def _lightest_contact_mass(self) -> float:
+        """Smallest effective mass of any contact the scene can form (pair or ball-terrain)."""
+        m = np.sort(self.masses)
+        pair = m[0] * m[1] / (m[0] + m[1]) if m.size >= 2 else math.inf
+        return float(min(pair, m[0]))
+
     def _stiffest_contacts(self) -> list[tuple[str, float, float, float]]:
         """(label, ks, kd, m_eff) of the extreme contacts this scene can form."""
         m = np.sort(self.masses)
@@ -339,7 +378,7 @@ class World:
         idx = slice(None) if worlds is None else np.atleast_1d(np.asarray(worlds, dtype=np.int64))
         if worlds is not None and (idx.size and (idx.min() < 0 or idx.max() >= self.n_worlds)):
             raise ValueError(f"worlds must index 0..{self.n_worlds - 1}, got {worlds!r}")
-        target = self._x[idx].shape
+        target = (self.n_worlds if worlds is None else idx.size,) + self._x.shape[1:]
         for name, value, dest in (("positions", positions, self._x), ("velocities", velocities, self._v)):
             if value is None:
                 continue
@@ -350,6 +389,18 @@ class World:
                 raise ValueError(f"{name} must have shape {target if self._batched or worlds is not None else target[1:]}, got {np.shape(value)}")
             dest[idx] = arr
         self._a0_valid[idx] = False
+
+    def kernel_state(self) -> KernelState:
+        """The World's own buffers and model as the Numba kernels take them, for code that fuses
+        its own per-step work with the core's step functions (the environments do). Writing the
+        arrays changes the World's state; call ``invalidate_cache`` after writing positions or
+        velocities if the integrator is velocity Verlet."""
+        return KernelState(self._x, self._v, self._work, self._ext, self._grid, self._model, self._friction,
+                           self.gravity)
+
+    def invalidate_cache(self, worlds=None) -> None:
+        """Forget velocity Verlet's cached acceleration (after writing state directly)."""
+        self._a0_valid[slice(None) if worlds is None else worlds] = False
 
     # ---------------------------------------------------------------- stepping
     def step(self, n: int = 1, forces=None) -> None:
@@ -369,7 +420,9 @@ class World:
             ext = self._ext
         if n == 0:
             return
-        if self._large:
+        if self._events is not None:
+            _events.run(self, int(n), ext)
+        elif self._large:
             K.run_large(self._integ, int(n), self.dt, self._x, self._v, self._work, ext, self._grid,
                         self._model, self._friction, self.gravity, self._status)
         else:

@@ -1,0 +1,841 @@
+"""Speed against accuracy: ``python -m penalty_env.bench accuracy [--quick] [--fit] [--out DIR]``.
+
+For every integrator (with and without event location, :mod:`penalty_env.physics.events`), time
+steps from 2 to 512 steps per contact duration, damping ratios zeta in {0, 0.1, 0.3} and both
+damping modes, on five scenarios:
+
+1. ``pair``: a head-on collision of unequal masses (1 and 3, radii 0.1 and 0.15), gravity off:
+   relative error of the restitution and of the contact duration against the closed forms;
+2. ``drop``: a ball dropped into a 3D bowl (gravity on): rebound restitution and peak overlap
+   against the exact solution of the spring-dashpot contact under gravity
+   (:func:`penalty_env.physics.configure.contact_response`);
+3. ``rest``: a ball set down on the bowl's floor: the overlap it settles at against m g / ks;
+4. ``elastic_pile``: 64 balls in a bowl, kd = 0 (more than 1,000 contacts): relative energy drift
+   over a fixed simulated time;
+5. ``damped_pile``: the same pile damped: position error at a fixed time against a reference run
+   of RK4 with event location at a 16x smaller step than the smallest of the sweep.
+
+Errors of scenarios 1 and 2 are the worst case over 1,024 phases of where the contact starts within
+the step grid (all in one batched World; the first-order error lives in narrow phase windows, so
+a sparse sweep misses it). Cost is measured two ways: wall time per simulated second (per world,
+in the same run) and force evaluations per simulated second (event location counts its trial,
+landing and crossing evaluations).
+
+Output (``--out``, default ``docs/``): ``accuracy.csv`` (every run), ``accuracy_<damping>_zeta<z>.png``
+(log-log error against force evaluations per simulated second, one panel per scenario and metric,
+one line per integrator, dashed with event location, diverged runs as crosses along the top, the
+Pareto front in grey, the configuration :func:`penalty_env.physics.configure` picks for a 1% restitution
+tolerance as a star) and ``accuracy_walltime.png`` (the same for zeta = 0.3 against wall time).
+``--fit`` also fits ``err = C (steps per contact)^-p`` per integrator, event mode, damping mode
+and zeta (scenarios 1 and 2, extra zetas 0.5 and 0.7 on scenario 1) and rewrites the measured
+block of ``penalty_env/physics/configure.py``. ``--quick`` (a CI smoke run, < 2 minutes once
+compiled) sweeps fewer steps, phases, zetas and methods.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import os
+import re
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ..physics import Bowl, World, theory
+from ..physics import configure as CF
+from ..physics import events as EV
+
+INTEGRATORS = theory.INTEGRATORS
+SPCS = (2, 4, 8, 16, 32, 64, 128, 256, 512)
+ZETAS = (0.0, 0.1, 0.3)
+FIT_EXTRA_ZETAS = (0.5, 0.7)
+DAMPINGS = ("linear", "no_tension")
+PHASES = 1024
+
+# scenario constants ------------------------------------------------------------------------
+PAIR_MASSES = (1.0, 3.0)
+PAIR_RADII = (0.1, 0.15)
+PAIR_KS = 1.0e4
+PAIR_SPEED = 1.0
+
+DROP_MASS, DROP_RADIUS, DROP_KS, DROP_SPEED, G = 1.0, 0.1, 4.0e4, 2.0, 9.81
+BOWL = Bowl((0.0, 0.0, 1.0), 1.0)  # floor at z = 0
+
+PILE_N, PILE_RADIUS, PILE_MASS, PILE_SPEED = 64, 0.08, 1.0, 5.0
+PILE_BOWL = Bowl((0.0, 0.0, 0.6), 0.6)
+PILE_PENETRATION = 0.05
+PILE_T_ELASTIC = 320  # simulated time, in contact durations of a pair
+PILE_T_DAMPED = 32
+PILE_WORLDS = 2
+
+
+@dataclass
+class Measure:
+    """One run: errors by metric, and its cost."""
+
+    errors: dict
+    diverged: bool
+    wall_per_sim_s: float  # wall seconds per simulated second, per world
+    evals_per_sim_s: float  # force evaluations per simulated second, per world
+    events_per_sim_s: float = 0.0
+    fallbacks: int = 0
+    extra: dict = field(default_factory=dict)
+
+
+def _world(x, v, radii, masses, *, integrator, events, damping, ks, kd, dt, gravity, terrain=(), **kw):
+    return World(x, radii, masses, v, terrain=terrain, gravity=gravity, ks=ks, kd=kd, damping=damping,
+                 integrator=integrator, dt=dt, allow_unstable=True, events=events, **kw)
+
+
+def _cost(w: World, nsteps: int, wall: float) -> tuple[float, float, float, int]:
+    """(wall / sim s, evals / sim s, events / sim s, fallbacks), per world."""
+    sim = nsteps * w.dt
+    B = w.n_worlds
+    if w.events:
+        st = EV.stats(w._events)
+        evals, n_ev, fb = st["force_evaluations"] / B, st["events"] / B, st["fallbacks"]
+    else:
+        evals, n_ev, fb = w.force_evaluations_per_step * nsteps, 0.0, 0
+    return wall / (B * sim), evals / sim, n_ev / sim, fb
+
+
+def _timed_steps(w: World, nsteps: int, record=None):
+    """Step ``nsteps``; with ``record`` (a callback of the World) call it after every step. Returns
+    the wall time of the stepping alone, or None if the run produced NaN / inf."""
+    try:
+        if record is None:
+            t = time.perf_counter()
+            w.step(nsteps)
+            return time.perf_counter() - t
+        wall = 0.0
+        for _ in range(nsteps):
+            t = time.perf_counter()
+            w.step(1)
+            wall += time.perf_counter() - t
+            record(w)
+        return wall
+    except FloatingPointError:
+        return None
+
+
+def _hermite_peak(d0, r0, d1, r1, h):
+    """Largest value of the cubic Hermite interpolant of (d, d') over [0, h], per world."""
+    # d(s) = a + b s + c s^2 + e s^3 on s in [0, 1], with d'(s) scaled by h
+    a = d0
+    b = h * r0
+    c = 3.0 * (d1 - d0) - h * (2.0 * r0 + r1)
+    e = 2.0 * (d0 - d1) + h * (r0 + r1)
+    best = np.maximum(d0, d1)
+    qa, qb, qc = 3.0 * e, 2.0 * c, b  # d'(s) = qa s^2 + qb s + qc
+    disc = qb * qb - 4.0 * qa * qc
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        for s in ((-qb + sq) / (2.0 * qa), (-qb - sq) / (2.0 * qa), -qc / qb):
+            ok = np.isfinite(s) & (s > 0.0) & (s < 1.0) & (disc >= 0.0)
+            val = a + b * s + c * s * s + e * s * s * s
+            best = np.where(ok, np.maximum(best, np.where(ok, val, -np.inf)), best)
+    return best
+
+
+# --------------------------------------------------------------------------------------------
+# Scenario 1: pair collision
+# --------------------------------------------------------------------------------------------
+
+
+def pair_collision(integrator, events, damping, zeta, spc, phases=PHASES, *, masses=PAIR_MASSES,
+                   radii=PAIR_RADII, ks=PAIR_KS, speed=PAIR_SPEED, kd=None, dt=None) -> Measure:
+    """Head-on collision along x, gravity off, one world per start phase. Errors: ``restitution``,
+    ``duration`` (relative, worst over phases) and ``peak_overlap`` (relative to the exact peak;
+    ``peak_ratio`` in extra: the worst peak overlap / the smaller radius)."""
+    m1, m2 = masses
+    me = m1 * m2 / (m1 + m2)
+    if kd is None:
+        kd = 2.0 * zeta * math.sqrt(ks * me)
+    zeta = theory.damping_ratio(ks, kd, me)
+    omega = theory.natural_frequency(ks, me)
+    tc = theory.contact_time(ks, kd, me)
+    if dt is None:
+        dt = tc / spc
+    exact = CF.contact_response(zeta, damping)
+    ph = np.arange(phases) / phases
+    gaps = speed * dt * (1.0 + ph)
+    x = np.zeros((phases, 2, 3))
+    v = np.zeros((phases, 2, 3))
+    x[:, 1, 0] = radii[0] + radii[1] + gaps
+    v[:, 0, 0] = speed * m2 / (m1 + m2)
+    v[:, 1, 0] = -speed * m1 / (m1 + m2)
+    n_steps = int(math.ceil((1.6 * exact.duration / omega) / dt)) + 8
+    kw = dict(integrator=integrator, events=events, damping=damping, ks=ks, kd=kd, dt=dt,
+              gravity=(0.0, 0.0, 0.0), broadphase="all_pairs")
+    l0 = radii[0] + radii[1]
+    peak = np.zeros(phases)
+    prev = {"d": -gaps, "r": np.full(phases, speed)}
+
+    def record(w):
+        xx, vv = w.positions, w.velocities
+        d = l0 - (xx[:, 1, 0] - xx[:, 0, 0])
+        r = -(vv[:, 1, 0] - vv[:, 0, 0])
+        peak[:] = np.maximum(peak, _hermite_peak(prev["d"], prev["r"], d, r, dt))
+        prev["d"], prev["r"] = d, r
+
+    w = _world(x, v, radii, masses, **kw)
+    ok = _timed_steps(w, n_steps, record) is not None
+    if ok:
+        xx, vv = w.positions, w.velocities
+        gap_end = (xx[:, 1, 0] - xx[:, 0, 0]) - l0
+        u = vv[:, 1, 0] - vv[:, 0, 0]  # separation speed
+        e_num = u / speed
+        t_end = n_steps * dt - np.where(u > 0, gap_end / np.where(u > 0, u, 1.0), np.inf)
+        t_begin = gaps / speed
+        ok = bool(np.all(np.isfinite(e_num)))
+    if not ok:
+        return Measure({"restitution": math.inf, "duration": math.inf, "peak_overlap": math.inf}, True,
+                       math.nan, math.nan)
+    separated = (gap_end > 0) & (u > 0)
+    e_err = np.abs(e_num / exact.restitution - 1.0)
+    tc_err = np.where(separated, np.abs((t_end - t_begin) * omega / exact.duration - 1.0), 1.0)
+    pk_err = np.abs(peak * omega / speed / exact.peak_overlap - 1.0)
+    # timing: a fresh world stepped in one call
+    w2 = _world(x, v, radii, masses, **kw)
+    wall = _timed_steps(w2, n_steps)
+    cost = _cost(w2, n_steps, wall if wall is not None else math.nan)
+    errors = {"restitution": float(e_err.max()), "duration": float(tc_err.max()), "peak_overlap": float(pk_err.max())}
+    diverged = not all(math.isfinite(e) for e in errors.values()) or errors["restitution"] > 1.0
+    return Measure(errors, diverged, *cost,
+                   extra={"peak_ratio": float(peak.max() / min(radii)), "separated": bool(separated.all())})
+
+
+# --------------------------------------------------------------------------------------------
+# Scenario 2: a ball dropped into the bowl
+# --------------------------------------------------------------------------------------------
+
+
+def bowl_drop(integrator, events, damping, zeta, spc, phases=PHASES, *, mass=DROP_MASS, radius=DROP_RADIUS,
+              ks=DROP_KS, speed=DROP_SPEED, g=G, kd=None, dt=None) -> Measure:
+    """Ball falling along the bowl's axis, arriving at the floor at ``speed`` at phase k/phases of
+    the second step. Errors: rebound ``restitution`` (speed at the floor on the way up, from the
+    first state after the contact, by energy in free flight) and ``peak_overlap``, against the exact
+    solution with gravity."""
+    if kd is None:
+        kd = 2.0 * zeta * math.sqrt(ks * mass)
+    zeta = theory.damping_ratio(ks, kd, mass)
+    omega = theory.natural_frequency(ks, mass)
+    tc = theory.contact_time(ks, kd, mass)
+    if dt is None:
+        dt = tc / spc
+    exact = CF.contact_response(zeta, damping, g / (omega * speed))
+    ph = np.arange(phases) / phases
+    t_arrive = dt * (1.0 + ph)
+    v0 = speed - g * t_arrive  # downward speed at the start
+    h0 = speed * t_arrive - 0.5 * g * t_arrive**2  # height of the contact point above the floor
+    x = np.zeros((phases, 1, 3))
+    v = np.zeros((phases, 1, 3))
+    x[:, 0, 2] = radius + h0
+    v[:, 0, 2] = -v0
+    n_steps = int(math.ceil(1.6 * exact.duration / omega / dt)) + 8
+    kw = dict(integrator=integrator, events=events, damping=damping, ks=ks, kd=kd, dt=dt,
+              gravity=(0.0, 0.0, -g), terrain=(BOWL,))
+    peak = np.zeros(phases)
+    v_exit = np.full(phases, np.nan)
+    state = {"d": -h0, "r": v0.copy(), "touched": np.zeros(phases, dtype=bool)}
+
+    def record(w):
+        z, vz = w.positions[:, 0, 2], w.velocities[:, 0, 2]
+        d = radius - z
+        r = -vz
+        peak[:] = np.maximum(peak, _hermite_peak(state["d"], state["r"], d, r, dt))
+        state["touched"] |= d > 0
+        out = state["touched"] & (d <= 0) & (vz > 0) & np.isnan(v_exit)
+        v_exit[out] = np.sqrt(vz[out] ** 2 + 2.0 * g * (z[out] - radius))
+        state["d"], state["r"] = d, r
+
+    w = _world(x, v, [radius], [mass], **kw)
+    wall = _timed_steps(w, n_steps, record)
+    if wall is None or not np.all(np.isfinite(w.positions)):
+        return Measure({"restitution": math.inf, "peak_overlap": math.inf}, True, math.nan, math.nan)
+    e_num = np.where(np.isnan(v_exit), 0.0, v_exit) / speed
+    e_err = np.abs(e_num / exact.restitution - 1.0)
+    pk_err = np.abs(peak * omega / speed / exact.peak_overlap - 1.0)
+    w2 = _world(x, v, [radius], [mass], **kw)
+    wall = _timed_steps(w2, n_steps)
+    cost = _cost(w2, n_steps, wall if wall is not None else math.nan)
+    errors = {"restitution": float(e_err.max()), "peak_overlap": float(pk_err.max())}
+    diverged = not all(math.isfinite(e) for e in errors.values()) or errors["restitution"] > 1.0
+    return Measure(errors, diverged, *cost, extra={"peak_ratio": float(peak.max() / radius)})
+
+
+# --------------------------------------------------------------------------------------------
+# Scenario 3: resting contact
+# --------------------------------------------------------------------------------------------
+
+
+def resting(integrator, events, damping, zeta, spc, phases=16, *, mass=DROP_MASS, radius=DROP_RADIUS,
+            ks=DROP_KS, g=G, kd=None, dt=None) -> Measure:
+    """A ball set down (from rest, a fraction of g dt^2 above the floor) settles at the overlap
+    m g / ks. Error: |overlap / (m g / ks) - 1| after 25 / (zeta omega0) (the exact transient has
+    decayed below 1e-10 by then). Needs zeta > 0."""
+    if kd is None:
+        kd = 2.0 * zeta * math.sqrt(ks * mass)
+    zeta = theory.damping_ratio(ks, kd, mass)
+    if zeta <= 0.0:
+        raise ValueError("resting contact needs damping (zeta > 0) to settle")
+    omega = theory.natural_frequency(ks, mass)
+    tc = theory.contact_time(ks, kd, mass)
+    if dt is None:
+        dt = tc / spc
+    rest = mass * g / ks
+    ph = np.arange(phases) / phases
+    x = np.zeros((phases, 1, 3))
+    x[:, 0, 2] = radius + ph * g * dt * dt
+    v = np.zeros_like(x)
+    n_steps = int(math.ceil(25.0 / (zeta * omega) / dt))
+    kw = dict(integrator=integrator, events=events, damping=damping, ks=ks, kd=kd, dt=dt,
+              gravity=(0.0, 0.0, -g), terrain=(BOWL,))
+    w = _world(x, v, [radius], [mass], **kw)
+    wall = _timed_steps(w, n_steps)
+    if wall is None:
+        return Measure({"resting_overlap": math.inf}, True, math.nan, math.nan)
+    overlap = radius - w.positions[:, 0, 2]
+    err = np.abs(overlap / rest - 1.0)
+    cost = _cost(w, n_steps, wall)
+    e = float(err.max())
+    return Measure({"resting_overlap": e}, not math.isfinite(e) or e > 1.0, *cost)
+
+
+# --------------------------------------------------------------------------------------------
+# Scenarios 4 and 5: a pile of balls in the bowl
+# --------------------------------------------------------------------------------------------
+
+
+def pile_scene(n=PILE_N, worlds=PILE_WORLDS, seed=0):
+    """``worlds`` random initial states of n balls in the bowl: scattered in its lower part
+    (no overlap), velocities uniform in a ball of radius 1.5 m/s."""
+    rng = np.random.default_rng(seed)
+    r = PILE_RADIUS
+    c = np.array(PILE_BOWL.center)
+    R = PILE_BOWL.radius
+    x = np.zeros((worlds, n, 3))
+    for b in range(worlds):
+        pts = []
+        while len(pts) < n:
+            p = c + rng.uniform(-1.0, 1.0, 3) * R
+            if np.linalg.norm(p - c) > R - r - 0.01 or p[2] > 0.9 * R:
+                continue
+            if all(np.linalg.norm(p - q) > 2 * r + 0.01 for q in pts):
+                pts.append(p)
+        x[b] = np.array(pts)
+    dirs = rng.normal(size=(worlds, n, 3))
+    dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+    v = dirs * 1.5 * rng.uniform(0, 1, (worlds, n, 1)) ** (1 / 3)
+    return x, v
+
+
+def pile_params(zeta):
+    """ks from a 5% penetration at 5 m/s for a pair (m_eff = m/2), kd for zeta on a pair; the
+    contact duration of a pair (the shortest contact of the scene)."""
+    me = PILE_MASS / 2
+    ks = theory.stiffness_for_penetration(me, PILE_SPEED, PILE_PENETRATION * PILE_RADIUS)
+    kd = 2.0 * zeta * math.sqrt(ks * me)
+    tc = theory.contact_time(ks, kd, me)
+    return ks, kd, tc
+
+
+def _pile_world(integrator, events, damping, zeta, dt, x, v):
+    ks, kd, _ = pile_params(zeta)
+    n = x.shape[1]
+    return _world(x, v, np.full(n, PILE_RADIUS), np.full(n, PILE_MASS), integrator=integrator, events=events,
+                  damping=damping, ks=ks, kd=kd, dt=dt, gravity=(0.0, 0.0, -G), terrain=(PILE_BOWL,))
+
+
+def elastic_pile(integrator, events, spc, *, t_end=PILE_T_ELASTIC, worlds=PILE_WORLDS) -> Measure:
+    """kd = 0, for t_end contact durations: relative energy drift |E(T) - E(0)| / (E(0) - E_floor) (E_floor: every ball at
+    the bowl's lowest point), worst over worlds."""
+    _, _, tc = pile_params(0.0)
+    dt = tc / spc
+    x, v = pile_scene(worlds=worlds)
+    w = _pile_world(integrator, events, "linear", 0.0, dt, x, v)
+    e0 = w.energy()
+    floor = PILE_N * PILE_MASS * G * PILE_RADIUS
+    n_steps = int(t_end * spc)
+    wall = _timed_steps(w, n_steps)
+    if wall is None:
+        return Measure({"energy_drift": math.inf}, True, math.nan, math.nan)
+    e1 = w.energy()
+    drift = np.abs(e1 - e0) / (e0 - floor)
+    d = float(drift.max())
+    return Measure({"energy_drift": d}, not math.isfinite(d) or d > 1.0, *_cost(w, n_steps, wall))
+
+
+_REFERENCE_CACHE: dict = {}
+
+
+def pile_reference(damping, zeta, spc_ref, t_end=PILE_T_DAMPED, worlds=PILE_WORLDS):
+    """Positions after t_end contact durations of RK4 with event location at spc_ref (cached)."""
+    key = (damping, zeta, spc_ref, t_end, worlds)
+    if key not in _REFERENCE_CACHE:
+        _, _, tc = pile_params(zeta)
+        x, v = pile_scene(worlds=worlds)
+        w = _pile_world("rk4", True, damping, zeta, tc / spc_ref, x, v)
+        w.step(int(t_end * spc_ref))
+        _REFERENCE_CACHE[key] = w.positions.copy()
+    return _REFERENCE_CACHE[key]
+
+
+def damped_pile(integrator, events, damping, zeta, spc, *, spc_reference, t_end=PILE_T_DAMPED,
+                worlds=PILE_WORLDS) -> Measure:
+    """Position error after t_end contact durations against the reference, RMS over balls / radius, worst over worlds."""
+    _, _, tc = pile_params(zeta)
+    dt = tc / spc
+    n_steps = int(t_end * spc)
+    ref = pile_reference(damping, zeta, spc_reference, t_end, worlds)
+    x, v = pile_scene(worlds=worlds)
+    w = _pile_world(integrator, events, damping, zeta, dt, x, v)
+    wall = _timed_steps(w, n_steps)
+    if wall is None:
+        return Measure({"trajectory": math.inf}, True, math.nan, math.nan)
+    err = np.sqrt(np.mean(np.sum((w.positions - ref) ** 2, axis=-1), axis=-1)) / PILE_RADIUS
+    e = float(err.max())
+    return Measure({"trajectory": e}, not math.isfinite(e) or e > 1.0, *_cost(w, n_steps, wall))
+
+
+def count_pile_contacts(spc=64, t_end=PILE_T_ELASTIC, worlds=PILE_WORLDS) -> float:
+    """Contacts per world in the elastic pile over t_end (switches located by RK4 with events / 2)."""
+    _, _, tc = pile_params(0.0)
+    dt = tc / spc
+    x, v = pile_scene(worlds=worlds)
+    w = _pile_world("rk4", True, "linear", 0.0, dt, x, v)
+    w.step(int(t_end * spc))
+    return EV.stats(w._events)["events"] / 2.0 / worlds
+
+
+# --------------------------------------------------------------------------------------------
+# The sweep
+# --------------------------------------------------------------------------------------------
+
+FIELDS = ["scenario", "metric", "integrator", "events", "damping", "zeta", "steps_per_contact", "error",
+          "diverged", "wall_per_sim_s", "evals_per_sim_s", "events_per_sim_s", "fallbacks"]
+
+
+def _rows(scenario, integ, events, damping, zeta, spc, m: Measure):
+    for metric, err in m.errors.items():
+        yield dict(scenario=scenario, metric=metric, integrator=integ, events=int(events), damping=damping,
+                   zeta=zeta, steps_per_contact=spc, error=err, diverged=int(m.diverged),
+                   wall_per_sim_s=m.wall_per_sim_s, evals_per_sim_s=m.evals_per_sim_s,
+                   events_per_sim_s=m.events_per_sim_s, fallbacks=m.fallbacks)
+
+
+def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pile", "damped_pile"), fit=False):
+    """Every run of the chart (and, with ``fit``, the extra zetas of the fitted models)."""
+    spcs = (4, 16, 64) if quick else SPCS
+    zetas = (0.3,) if quick else ZETAS
+    dampings = ("linear",) if quick else DAMPINGS
+    phases = 128 if quick else PHASES
+    methods = [(i, e) for i in INTEGRATORS for e in (False, True)]
+    if quick:
+        methods = [("symplectic_euler", False), ("velocity_verlet", False), ("rk4", False), ("rk4", True)]
+    rows = []
+    t0 = time.perf_counter()
+
+    def emit(scenario, integ, ev, damping, zeta, spc, m):
+        new = list(_rows(scenario, integ, ev, damping, zeta, spc, m))
+        rows.extend(new)
+        errs = " ".join(f"{r['metric']}={r['error']:.3g}" for r in new)
+        log(f"[{time.perf_counter() - t0:7.1f}s] {scenario:12s} {integ:16s} events={int(ev)} {damping:10s} "
+            f"zeta={zeta:<4g} spc={spc:<4d} {errs}{'  DIVERGED' if m.diverged else ''}")
+
+    fit_zetas = zetas + (FIT_EXTRA_ZETAS if fit and not quick else ())
+    for integ, ev in methods:
+        for damping in dampings:
+            for zeta in fit_zetas:
+                if zeta == 0.0 and damping == "no_tension":
+                    continue  # identical to linear without damping
+                for spc in spcs:
+                    if "pair" in scenarios:
+                        emit("pair", integ, ev, damping, zeta, spc, pair_collision(integ, ev, damping, zeta, spc, phases))
+                    if zeta in zetas and "drop" in scenarios:
+                        emit("drop", integ, ev, damping, zeta, spc, bowl_drop(integ, ev, damping, zeta, spc, phases))
+                    if zeta in zetas and zeta > 0.0 and "rest" in scenarios:
+                        emit("rest", integ, ev, damping, zeta, spc, resting(integ, ev, damping, zeta, spc))
+    pile_spcs = (8, 32) if quick else SPCS
+    t_el = PILE_T_ELASTIC / (4 if quick else 1)
+    t_dp = PILE_T_DAMPED / (2 if quick else 1)
+    pile_worlds = 1 if quick else PILE_WORLDS
+    if "elastic_pile" in scenarios:
+        for integ, ev in methods:
+            for spc in pile_spcs:
+                emit("elastic_pile", integ, ev, "linear", 0.0, spc, elastic_pile(integ, ev, spc, t_end=t_el, worlds=pile_worlds))
+    if "damped_pile" in scenarios:
+        spc_ref = 16 * max(pile_spcs)
+        for damping in dampings:
+            for zeta in [z for z in zetas if z > 0]:
+                for integ, ev in methods:
+                    for spc in pile_spcs:
+                        emit("damped_pile", integ, ev, damping, zeta, spc,
+                             damped_pile(integ, ev, damping, zeta, spc, spc_reference=spc_ref, t_end=t_dp,
+                                         worlds=pile_worlds))
+    return rows
+
+
+def write_csv(rows, path):
+    with open(path, "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=FIELDS)
+        wr.writeheader()
+        for r in rows:
+            wr.writerow({k: (f"{r[k]:.6g}" if isinstance(r[k], float) else r[k]) for k in FIELDS})
+
+
+def read_csv(path):
+    rows = []
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            for k in ("zeta", "error", "wall_per_sim_s", "evals_per_sim_s", "events_per_sim_s"):
+                r[k] = float(r[k])
+            for k in ("events", "diverged", "steps_per_contact", "fallbacks"):
+                r[k] = int(float(r[k]))
+            rows.append(r)
+    return rows
+
+
+# --------------------------------------------------------------------------------------------
+# Fitting the error models (for configure)
+# --------------------------------------------------------------------------------------------
+
+FLOOR = 1e-11  # below this the worst case is round-off, not truncation
+
+
+def fit_power_law(spcs, errs):
+    """Fit err = C spc^-p on the asymptotic part of a convergence curve.
+
+    Points considered: finite, below 0.2 and above the round-off floor; the fit runs over the
+    longest tail of those (at least 3 points) and C is then the upper envelope max(err spc^p), so
+    the model never under-predicts a measured point of its range. Returns None if fewer than 3
+    usable points.
+    """
+    spcs = np.asarray(spcs, dtype=float)
+    errs = np.asarray(errs, dtype=float)
+    order = np.argsort(spcs)
+    spcs, errs = spcs[order], errs[order]
+    good = np.isfinite(errs) & (errs < 0.2) & (errs > FLOOR)
+    # the tail: from the first good point after which every point is good or at the floor
+    idx = np.flatnonzero(good)
+    if idx.size < 3:
+        return None
+    start = idx[0]
+    for k in idx:
+        if np.all(good[k:] | (errs[k:] <= FLOOR)):
+            start = k
+            break
+    sel = np.arange(start, len(spcs))
+    sel = sel[good[sel]]
+    if sel.size < 3:
+        return None
+    ls, le = np.log(spcs[sel]), np.log(errs[sel])
+    p = -np.polyfit(ls, le, 1)[0]
+    p = max(p, 0.1)
+    C = float(np.max(errs[sel] * spcs[sel] ** p))
+    floor = float(errs[sel[-1]:][errs[sel[-1]:] <= FLOOR].max()) if np.any(errs[sel[-1]:] <= FLOOR) else 0.0
+    return {"C": C, "p": float(p), "spc_min": float(spcs[sel[0]]), "spc_max": float(spcs[-1]),
+            "floor": max(floor, FLOOR)}
+
+
+def fit_models(rows):
+    """ERROR_MODELS for configure: worst of scenarios 1 and 2 per (method, damping, zeta, metric)."""
+    models = {}
+    groups = {}
+    for r in rows:
+        if r["scenario"] not in ("pair", "drop") or r["metric"] not in CF.METRICS:
+            continue
+        key = (r["integrator"], bool(r["events"]), r["damping"], r["metric"], r["zeta"])
+        err = math.inf if r["diverged"] else r["error"]
+        groups.setdefault(key, {})
+        spc = r["steps_per_contact"]
+        groups[key][spc] = max(groups[key].get(spc, 0.0), err)
+    for (integ, ev, damping, metric, zeta), pts in sorted(groups.items()):
+        spcs = sorted(pts)
+        res = fit_power_law(spcs, [pts[s] for s in spcs])
+        if res is None:
+            continue
+        models[CF._model_key(integ, ev, damping, metric, zeta)] = {k: float(f"{v:.4g}") for k, v in res.items()}
+        if zeta == 0.0:  # no damping: both damping modes are the same law
+            models[CF._model_key(integ, ev, "no_tension", metric, zeta)] = models[CF._model_key(integ, ev, damping, metric, zeta)]
+    return models
+
+
+def measure_costs(rows):
+    """COST_PER_STEP (wall time per step relative to symplectic Euler, elastic pile, no events) and
+    EVENT_EXTRA_EVALS (extra force-evaluation equivalents per contact, pair collision)."""
+    per_step = {}
+    for integ in INTEGRATORS:
+        ratios = []
+        for spc in SPCS:
+            def wall(i):
+                return [r["wall_per_sim_s"] for r in rows if r["scenario"] == "elastic_pile" and r["integrator"] == i
+                        and not r["events"] and r["steps_per_contact"] == spc and math.isfinite(r["wall_per_sim_s"])]
+            a, b = wall(integ), wall("symplectic_euler")
+            if a and b:
+                ratios.append(a[0] / b[0])
+        per_step[integ] = float(f"{np.median(ratios):.3g}") if ratios else {"rk4": 4.0}.get(integ, 1.0)
+    extra = {}
+    evals_per_step = {"rk4": 4}
+    for integ in INTEGRATORS:
+        vals = []
+        for r in rows:
+            if r["scenario"] != "pair" or r["metric"] != "restitution" or r["integrator"] != integ or not r["events"]:
+                continue
+            if r["steps_per_contact"] < 8 or r["diverged"]:
+                continue
+            plain = [q for q in rows if q["scenario"] == "pair" and q["metric"] == "restitution" and q["integrator"] == integ
+                     and not q["events"] and q["damping"] == r["damping"] and q["zeta"] == r["zeta"]
+                     and q["steps_per_contact"] == r["steps_per_contact"]]
+            if not plain:
+                continue
+            pair_tc = theory.contact_time(PAIR_KS, 2 * r["zeta"] * math.sqrt(PAIR_KS * 0.75), 0.75)
+            extra_evals = (r["evals_per_sim_s"] - plain[0]["evals_per_sim_s"]) * pair_tc * 1.6  # run length 1.6 t_c
+            # one contact per run: extra evals per contact, in units of the integrator's cost per eval
+            vals.append(extra_evals * per_step[integ] / evals_per_step.get(integ, 1))
+        if vals:
+            extra[integ] = float(f"{np.percentile(vals, 90):.3g}")
+    return per_step, extra
+
+
+def write_models(models, per_step, extra, path=None, source=""):
+    """Rewrite the measured block of configure.py."""
+    path = path or CF.__file__
+    text = open(path).read()
+    lines = ["# BEGIN MEASURED (python -m penalty_env.bench accuracy --fit)"]
+    lines.append(f"# {source}")
+    lines.append("ERROR_MODELS: dict = {")
+    for k in sorted(models):
+        lines.append(f"    {k!r}: {models[k]!r},")
+    lines.append("}")
+    lines.append(f"COST_PER_STEP: dict = {per_step!r}")
+    lines.append(f"EVENT_EXTRA_EVALS: dict = {extra!r}")
+    lines.append(f"MODEL_SOURCE = {source!r}")
+    lines.append("# END MEASURED")
+    new = re.sub(r"# BEGIN MEASURED.*?# END MEASURED", lambda _: "\n".join(lines), text, flags=re.S)
+    with open(path, "w") as f:
+        f.write(new)
+
+
+# --------------------------------------------------------------------------------------------
+# Charts
+# --------------------------------------------------------------------------------------------
+
+PANELS = [
+    ("pair", "restitution", "1. pair collision: restitution"),
+    ("pair", "duration", "1. pair collision: contact duration"),
+    ("drop", "restitution", "2. ball into bowl: rebound restitution"),
+    ("drop", "peak_overlap", "2. ball into bowl: peak overlap"),
+    ("rest", "resting_overlap", "3. resting: overlap vs m g / ks"),
+    ("elastic_pile", "energy_drift", "4. elastic pile (kd = 0): energy drift"),
+    ("damped_pile", "trajectory", "5. damped pile: position error / r"),
+]
+COLORS = {"explicit_euler": "tab:red", "symplectic_euler": "tab:blue", "velocity_verlet": "tab:green",
+          "rk4": "tab:purple", "implicit_euler": "tab:orange"}
+SHORT = {"explicit_euler": "explicit Euler", "symplectic_euler": "symplectic Euler",
+         "velocity_verlet": "velocity Verlet", "rk4": "RK4", "implicit_euler": "implicit Euler"}
+
+
+def _pareto(points):
+    """Lower-left front of (cost, error) points."""
+    pts = sorted(points)
+    front = []
+    best = math.inf
+    for c, e in pts:
+        if e < best:
+            front.append((c, e))
+            best = e
+    return front
+
+
+def plot(rows, path, damping, zeta, cost="evals_per_sim_s", accuracy=0.01, title=None):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = [p for p in PANELS if any(r["scenario"] == p[0] and r["metric"] == p[1] for r in rows)]
+    ncol = 4
+    nrow = math.ceil(len(panels) / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.0 * ncol, 3.3 * nrow), squeeze=False)
+    for ax in axes.flat[len(panels):]:
+        ax.axis("off")
+    auto = None
+    try:
+        auto = _auto_choice(zeta, damping, accuracy) if CF.ERROR_MODELS else None
+    except ValueError:
+        auto = None
+    for ax, (scen, metric, label) in zip(axes.flat, panels):
+        z = 0.0 if scen == "elastic_pile" else zeta
+        d = "linear" if scen == "elastic_pile" else damping
+        sel = [r for r in rows if r["scenario"] == scen and r["metric"] == metric and r["zeta"] == z and r["damping"] == d]
+        if not sel:
+            ax.set_title(label + " (n/a)", fontsize=8)
+            ax.axis("off")
+            continue
+        good = [r for r in sel if not r["diverged"] and r["error"] > 0 and math.isfinite(r[cost])]
+        top = max([r["error"] for r in good] + [1.0]) * 3
+        floor = 1e-13
+        for integ in INTEGRATORS:
+            for ev in (0, 1):
+                pts = sorted(((r[cost], max(r["error"], floor)) for r in good if r["integrator"] == integ and r["events"] == ev))
+                if pts:
+                    ax.plot(*zip(*pts), color=COLORS[integ], ls="--" if ev else "-", marker="o" if ev else ".",
+                            ms=3, lw=1.2 if ev else 1.0, label=f"{SHORT[integ]}{' + events' if ev else ''}")
+                bad = [r for r in sel if r["diverged"] and r["integrator"] == integ and r["events"] == ev]
+                if bad:
+                    # diverged: cost from the nominal force evaluations (the run did not finish)
+                    xs = [_nominal_cost(r, cost, sel) for r in bad]
+                    ax.plot(xs, [top] * len(xs), ls="none", marker="x", color=COLORS[integ], ms=5)
+        front = _pareto([(r[cost], max(r["error"], floor)) for r in good])
+        if front:
+            ax.step(*zip(*front), where="post", color="0.5", lw=3, alpha=0.35, zorder=0)
+        if auto is not None and scen in ("pair", "drop", "rest"):
+            integ, ev, spc = auto
+            near = [r for r in good if r["integrator"] == integ and r["events"] == int(ev)]
+            if near:
+                # cost of the chosen spc interpolated in log-log along its line
+                c_s = np.array([r["steps_per_contact"] for r in near], float)
+                c_c = np.array([r[cost] for r in near])
+                c_e = np.array([max(r["error"], floor) for r in near])
+                o = np.argsort(c_s)
+                xc = float(np.exp(np.interp(np.log(spc), np.log(c_s[o]), np.log(c_c[o]))))
+                ye = float(np.exp(np.interp(np.log(spc), np.log(c_s[o]), np.log(c_e[o]))))
+                ax.plot([xc], [ye], marker="*", ms=14, color="gold", mec="k", zorder=5)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_ylim(floor, top * 2)
+        ax.grid(True, which="major", alpha=0.3)
+        ax.set_title(label, fontsize=9)
+        ax.set_xlabel("force evaluations / simulated s" if cost == "evals_per_sim_s" else "wall s / simulated s (per world)",
+                      fontsize=8)
+        ax.set_ylabel("worst-case relative error", fontsize=8)
+        ax.tick_params(labelsize=7)
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    from matplotlib.lines import Line2D
+
+    handles += [Line2D([], [], ls="none", marker="x", color="k"), Line2D([], [], color="0.5", lw=3, alpha=0.35),
+                Line2D([], [], ls="none", marker="*", ms=12, color="gold", mec="k")]
+    labels += ["diverged", "Pareto front", f"configure(accuracy={accuracy:g})"]
+    fig.legend(handles, labels, loc="lower right", ncol=2, fontsize=8, frameon=False,
+               bbox_to_anchor=(0.99, 0.02))
+    fig.suptitle(title or f"Speed against accuracy: damping {damping}, zeta = {zeta:g} (zeta = 0 in panel 4)", fontsize=11)
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    fig.savefig(path, dpi=64)
+    plt.close(fig)
+
+
+def _nominal_cost(r, cost, sel):
+    """Cost of a diverged run, read off the same method's finite runs at the same steps per contact."""
+    same = [q[cost] for q in sel if q["integrator"] == r["integrator"] and q["events"] == r["events"]
+            and q["steps_per_contact"] == r["steps_per_contact"] and math.isfinite(q[cost])]
+    if same:
+        return same[0]
+    ref = [q for q in sel if q["steps_per_contact"] == r["steps_per_contact"] and math.isfinite(q[cost])
+           and q["integrator"] == "symplectic_euler" and not q["events"]]
+    if ref and cost == "evals_per_sim_s":
+        return ref[0][cost] * {"rk4": 4}.get(r["integrator"], 1)
+    finite = [q[cost] for q in sel if math.isfinite(q[cost])]
+    return min(finite) if finite else 1.0
+
+
+def _auto_choice(zeta, damping, accuracy):
+    """(integrator, events, steps per contact) that configure picks for one contact of this zeta."""
+    best = None
+    for integ in INTEGRATORS:
+        for ev in (False, True):
+            need = max(CF._steps_needed(integ, ev, damping, zeta, accuracy, mt) for mt in CF.METRICS)
+            if not math.isfinite(need):
+                continue
+            spc = CF.SAFETY * need
+            # the stability guard, in steps per contact
+            crit = theory.critical_omega_dt(integ, zeta)
+            from ..physics.world import STABILITY_SAFETY
+
+            if math.isfinite(crit):
+                if crit <= 0:
+                    continue
+                spc = max(spc, math.pi / math.sqrt(1 - zeta * zeta) / (STABILITY_SAFETY * crit))
+            c = CF.config_cost(integ, ev, spc)
+            if best is None or c < best[0]:
+                best = (c, integ, ev, spc)
+    if best is None:
+        raise ValueError("no configuration")
+    return best[1:]
+
+
+def make_charts(rows, out, quick=False):
+    paths = []
+    combos = [("linear", 0.3)] if quick else [("linear", 0.3), ("linear", 0.1), ("linear", 0.0),
+                                              ("no_tension", 0.3), ("no_tension", 0.1)]
+    for damping, zeta in combos:
+        p = os.path.join(out, f"accuracy_{damping}_zeta{zeta:g}.png")
+        plot(rows, p, damping, zeta)
+        paths.append(p)
+    p = os.path.join(out, "accuracy_walltime.png")
+    plot(rows, p, "linear", 0.3, cost="wall_per_sim_s",
+         title="Speed against accuracy: wall time (same runs), damping linear, zeta = 0.3")
+    paths.append(p)
+    return paths
+
+
+def order_table(rows, damping="linear", zeta=0.3, scenario="pair", metric="restitution", spcs=(16, 32, 64, 128)):
+    """Measured convergence order (slope of log error against log steps per contact) per method."""
+    out = {}
+    for integ in INTEGRATORS:
+        for ev in (0, 1):
+            pts = {r["steps_per_contact"]: r["error"] for r in rows if r["scenario"] == scenario and r["metric"] == metric
+                   and r["integrator"] == integ and r["events"] == ev and r["damping"] == damping and r["zeta"] == zeta
+                   and not r["diverged"]}
+            s = [k for k in spcs if k in pts and pts[k] > FLOOR]
+            if len(s) >= 2:
+                out[(integ, ev)] = float(-np.polyfit(np.log(s), np.log([pts[k] for k in s]), 1)[0])
+    return out
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(prog="python -m penalty_env.bench accuracy", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="a CI-sized sweep (< 2 minutes once compiled)")
+    ap.add_argument("--fit", action="store_true", help="fit the error models and rewrite configure.py's measured block")
+    ap.add_argument("--out", default=None, help="folder for the CSV and PNGs (default: docs/ of the repository)")
+    ap.add_argument("--from-csv", default=None, help="skip the runs: chart (and fit) an existing accuracy.csv")
+    ap.add_argument("--no-plot", action="store_true")
+    ap.add_argument("--scenarios", default="pair,drop,rest,elastic_pile,damped_pile")
+    args = ap.parse_args(argv)
+    out = args.out or os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "docs")
+    if args.quick and args.out is None:
+        out = os.path.join(out, "quick")
+    os.makedirs(out, exist_ok=True)
+    t0 = time.perf_counter()
+    if args.from_csv:
+        rows = read_csv(args.from_csv)
+    else:
+        rows = sweep(args.quick, scenarios=tuple(args.scenarios.split(",")), fit=args.fit)
+        write_csv(rows, os.path.join(out, "accuracy.csv"))
+    if args.fit:
+        models = fit_models(rows)
+        per_step, extra = measure_costs(rows)
+        write_models(models, per_step, extra,
+                     source=f"{len(rows)} runs, {'quick' if args.quick else 'full'} sweep, "
+                            f"phases={128 if args.quick else PHASES}")
+        import importlib
+
+        importlib.reload(CF)
+        print(f"fitted {len(models)} error models; cost per step {per_step}; event extra evals per contact {extra}")
+    if not args.no_plot:
+        for p in make_charts(rows, out, args.quick):
+            print("wrote", p)
+    print("convergence orders (pair restitution, linear, zeta 0.3, 16..128 steps per contact):")
+    for (integ, ev), p in order_table(rows).items():
+        print(f"  {SHORT[integ]:18s}{' + events' if ev else '         '}  p = {p:5.2f}")
+    if any(r["scenario"] == "elastic_pile" for r in rows):
+        print(f"elastic pile: {count_pile_contacts(t_end=PILE_T_ELASTIC / (4 if args.quick else 1), worlds=1 if args.quick else PILE_WORLDS):.0f} contacts per world")
+    print(f"accuracy benchmark done in {time.perf_counter() - t0:.1f} s")
+
+
+if __name__ == "__main__":
+    main()

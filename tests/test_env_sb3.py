@@ -1,0 +1,133 @@
+"""The SB3 adapter: DummyVecEnv's same-step reset semantics over the batched worlds."""
+
+from __future__ import annotations
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from stable_baselines3.common.monitor import Monitor  # noqa: E402
+from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor  # noqa: E402
+
+import penalty_env  # noqa: F401, E402
+from penalty_env.envs.scripted import ScriptedPusher  # noqa: E402
+from penalty_env.sb3 import PenaltyBallsVecEnv, make_vec_env  # noqa: E402
+
+DIM = {"PenaltyBalls-v0": 3, "PenaltyBalls2D-v0": 2}
+
+
+def dummy_twin(env_id, n, seed, monitor=False, **kwargs):
+    def make():
+        env = gym.make(env_id, **kwargs)
+        return Monitor(env) if monitor else env
+
+    venv = DummyVecEnv([make for _ in range(n)])
+    venv.seed(seed)
+    return venv
+
+
+def mixed_actions(obs, policy, rng, k):
+    acts = rng.uniform(-1.0, 1.0, (obs.shape[0], k)).astype(np.float32)
+    for i in range(0, obs.shape[0], 2):
+        acts[i] = policy(obs[i])
+    return acts
+
+
+@pytest.mark.parametrize("env_id", DIM)
+def test_adapter_episodes_equal_a_dummy_vec_env_of_single_envs(env_id):
+    n, k = 4, DIM[env_id] - 1
+    ours = make_vec_env(env_id, n_envs=n, seed=21, monitor=False, max_episode_steps=100)
+    assert isinstance(ours, PenaltyBallsVecEnv)
+    twin = dummy_twin(env_id, n, 21, max_episode_steps=100)
+    obs_a, obs_b = ours.reset(), twin.reset()
+    assert np.array_equal(obs_a, obs_b)
+    assert ours.reset_infos == twin.reset_infos
+    policy = ScriptedPusher(DIM[env_id], 0.3)
+    rng = np.random.default_rng(1)
+    kinds = set()
+    for t in range(300):
+        acts = mixed_actions(obs_a, policy, rng, k)
+        obs_a, rew_a, done_a, infos_a = ours.step(acts)
+        obs_b, rew_b, done_b, infos_b = twin.step(acts)
+        assert np.array_equal(obs_a, obs_b), t
+        assert rew_a.dtype == rew_b.dtype and np.array_equal(rew_a, rew_b), t
+        assert np.array_equal(done_a, done_b), t
+        for i, (a, b) in enumerate(zip(infos_a, infos_b)):
+            assert a.keys() == b.keys(), (t, i)
+            for key in a:
+                if key == "terminal_observation":
+                    assert np.array_equal(a[key], b[key]) and a[key].dtype == b[key].dtype
+                    kinds.add("success" if a["is_success"] else "time-out")
+                else:
+                    assert a[key] == b[key] and type(a[key]) is type(b[key]), (t, i, key)
+        assert ours.reset_infos == twin.reset_infos
+    assert kinds == {"success", "time-out"}
+
+
+def test_terminal_observation_is_the_last_observation_before_the_reset():
+    venv = make_vec_env("PenaltyBalls-v0", n_envs=2, seed=0, monitor=False, max_episode_steps=3)
+    single = gym.make("PenaltyBalls-v0", max_episode_steps=3)
+    venv.reset()
+    single.reset(seed=0)
+    acts = np.array([[0.5, -0.5], [0.1, 0.2]], np.float32)
+    for t in range(3):
+        obs, rewards, dones, infos = venv.step(acts)
+        last = single.step(acts[0])[0]
+    assert dones.all() and rewards.dtype == np.float32
+    assert np.array_equal(infos[0]["terminal_observation"], last)
+    assert infos[0]["TimeLimit.truncated"] is True
+    assert np.array_equal(obs[0], single.reset()[0])  # already reset, same step
+
+
+def test_vec_monitor_episode_statistics_match_monitor():
+    ours = make_vec_env("PenaltyBalls-v0", n_envs=2, seed=4, max_episode_steps=40)
+    assert isinstance(ours, VecMonitor)
+    twin = dummy_twin("PenaltyBalls-v0", 2, 4, monitor=True, max_episode_steps=40)
+    ours.reset()
+    obs = twin.reset()
+    policy = ScriptedPusher(3, 0.3)
+    episodes = 0
+    for _ in range(120):
+        acts = np.stack([policy(o) for o in obs])
+        _, _, done_a, infos_a = ours.step(acts)
+        obs, _, done_b, infos_b = twin.step(acts)
+        for i in np.flatnonzero(done_b):
+            a, b = infos_a[i]["episode"], infos_b[i]["episode"]
+            assert a["l"] == b["l"] and a["r"] == pytest.approx(b["r"], abs=1e-4)
+            assert infos_a[i]["episode"]["is_success"] == infos_b[i]["is_success"]
+            episodes += 1
+    assert episodes >= 2
+
+
+def test_vecenv_interface():
+    venv = make_vec_env("PenaltyBalls-v0", n_envs=3, monitor=False, render_mode="rgb_array", render_width=32,
+                        render_height=32)
+    assert isinstance(venv, VecEnv)
+    assert venv.get_attr("render_mode") == ["rgb_array"] * 3
+    assert venv.get_attr("max_episode_steps", indices=[0]) == [150]
+    assert venv.env_is_wrapped(Monitor) == [False] * 3
+    venv.seed(3)
+    venv.reset()
+    images = venv.get_images()
+    assert len(images) == 3 and images[0].shape == (32, 32, 3)
+    assert venv.render().ndim == 3  # SB3 tiles them
+    with pytest.raises(ValueError, match="env_id"):
+        make_vec_env("CartPole-v1")
+    with pytest.raises(ValueError, match=r"shape \(3, 2\)"):
+        venv.step(np.zeros((3, 3), np.float32))
+
+
+def test_ppo_learns_on_the_adapter():
+    from stable_baselines3 import PPO
+
+    venv = make_vec_env("PenaltyBalls-v0", n_envs=2, seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model = PPO("MlpPolicy", venv, n_steps=1024, seed=0, device="cpu")
+        model.learn(2048)
+    assert model.num_timesteps >= 2048
+    assert len(model.ep_info_buffer) > 0  # VecMonitor's episode statistics reached the logger
