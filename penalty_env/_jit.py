@@ -1,10 +1,16 @@
 """Numba configuration shared by every kernel.
 
 Kernels are compiled with ``cache=True`` so a second process starts in well under a second.
-Numba writes its cache next to the source (``__pycache__``) when that is writable and otherwise in
-a user-wide cache folder; when neither is writable (a read-only install in a locked-down
-container), numba would raise at decoration time. We point ``NUMBA_CACHE_DIR`` at a temporary
-folder instead, and if even that fails we compile without a cache: slower to start, never a crash.
+Numba writes its cache next to the source (``__pycache__``) when that is writable. When the
+package is installed read-only, we point numba's cache at the user's own cache folder
+(``~/.cache/penalty_env/numba``), or failing that at a private temporary folder (``mkdtemp``: never
+a predictable shared path, since numba loads cache files as pickles); a user's
+``NUMBA_CACHE_DIR`` always wins. If even that fails we compile without a cache: slower to start,
+never a crash.
+
+Kernels are compiled without Numba's reference-counting runtime (``_nrt=False``): they never
+allocate, and with NRT every non-inlined call increfs and decrefs each array argument atomically,
+which cost ~100 ns per pair check (measured) and contends between threads.
 
 ``fastmath`` is deliberately not used: it lets LLVM assume no NaN/inf, which would delete the
 ``np.isfinite`` guards the kernels rely on to report a blown-up simulation.
@@ -38,12 +44,18 @@ def _choose_cache_dir() -> None:
     """Use the package tree if writable; else NUMBA_CACHE_DIR as given; else a temp folder."""
     if _numba_config.CACHE_DIR:  # the user chose one (NUMBA_CACHE_DIR); respect it
         return
-    here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "__pycache__")
-    if _writable(here):
+    package = os.path.dirname(os.path.abspath(__file__))
+    # the kernels live in these subpackages; each caches into its own __pycache__
+    if all(_writable(os.path.join(package, sub, "__pycache__")) for sub in ("physics", "envs")):
         return
-    fallback = os.path.join(tempfile.gettempdir(), f"penalty_env-numba-{os.getuid() if hasattr(os, 'getuid') else 'user'}")
-    if _writable(fallback):
-        _numba_config.CACHE_DIR = fallback
+    user = os.path.join(os.path.expanduser("~"), ".cache", "penalty_env", "numba")
+    if _writable(user):
+        _numba_config.CACHE_DIR = user
+        return
+    try:
+        _numba_config.CACHE_DIR = tempfile.mkdtemp(prefix="penalty_env-numba-")
+    except OSError:
+        pass  # no writable folder at all: numba raises at decoration and njit() compiles uncached
 
 
 _choose_cache_dir()
@@ -56,7 +68,7 @@ def njit(*args, **kwargs):
     """
     kwargs.setdefault("cache", True)
     kwargs.setdefault("error_model", "numpy")
-    kwargs.setdefault("_nrt", False)  # see the module docstring
+    kwargs.setdefault("_nrt", False)  # kernels never allocate: see the module docstring
     if kwargs.get("fastmath"):
         raise ValueError("fastmath is banned in penalty_env kernels: it removes NaN/inf checks")
 
@@ -73,6 +85,6 @@ def njit(*args, **kwargs):
             )
             return numba.njit(**dict(kwargs, cache=False))(func)
 
-    if len(args) == 1 and callable(args[0]) and not kwargs.get("_called"):
+    if len(args) == 1 and callable(args[0]):
         return decorate(args[0])
     return decorate

@@ -58,6 +58,7 @@ class PenaltyBallsVecEnv(VecEnv):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.scene = PenaltyBallsScene(n_envs, dim=dim, **kwargs)
+        self._never = np.zeros(n_envs, dtype=np.bool_)
         self.render_mode = render_mode
         self.max_episode_steps = int(max_episode_steps)
         super().__init__(self.scene.n_worlds, self.scene.observation_space, self.scene.action_space)
@@ -93,6 +94,9 @@ class PenaltyBallsVecEnv(VecEnv):
         scene = self.scene
         scene.actions[:] = self._actions
         self._actions = None
+        b = KE.first_bad_action(scene.actions, self._never)
+        if b >= 0:  # refuse before any world moves (the batch may be split over threads)
+            raise ValueError(f"the action of world {b} contains NaN or inf: {scene.actions[b].tolist()}")
         scene.step()
         self._steps += 1
         out = scene.out

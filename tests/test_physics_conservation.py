@@ -37,6 +37,8 @@ def _cluster(n, d, seed):
 )
 @pytest.mark.parametrize("integrator", ALL_INTEGRATORS)
 def test_pair_contacts_conserve_total_momentum_to_round_off(integrator, variant):
+    if integrator == "implicit_euler" and variant.get("damping") == "no_tension":
+        variant = dict(variant, damping="linear")  # refused combination: see test_physics_validation
     d = 3
     x, v, radii, masses = _cluster(24, d, seed=1)
     ks = 1e4

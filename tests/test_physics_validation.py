@@ -157,3 +157,35 @@ def test_a_world_that_blows_up_raises_floating_point_error():
     w = _make(kd=0.0, dt=0.05, allow_unstable=True, positions=np.array([[0.0, 0.0, 0.1], [0.5, 0.0, 0.3]]))
     with pytest.raises(FloatingPointError):
         w.step(10_000)
+
+
+def test_implicit_euler_refuses_no_tension_damping_which_its_linearised_solve_cannot_honour():
+    """The frozen-contact Jacobian does not know the clip, so the solve would pull separating balls
+    together: the combination is refused with a message naming both arguments."""
+    with pytest.raises(ValueError, match="no_tension.*implicit_euler"):
+        World(np.array([[0.0, 0.0, 0.1]]), [0.1], [1.0], ks=1e3, dt=1e-3, integrator="implicit_euler",
+              damping="no_tension")
+
+
+@pytest.mark.parametrize(
+    "kwargs,name",
+    [
+        (dict(terrain=None), "terrain"),
+        (dict(terrain=5), "terrain"),
+        (dict(damping=np.array(["linear"])), "damping"),
+        (dict(allow_unstable=float("nan")), "allow_unstable"),
+        (dict(ks=True), "ks"),
+        (dict(positions=np.array([[True, False, True]])), "positions"),
+    ],
+)
+def test_ill_typed_arguments_are_refused_naming_the_argument(kwargs, name):
+    base = dict(positions=np.array([[0.0, 0.0, 0.1]]), radii=[0.1], masses=[1.0], ks=1e3, dt=1e-3)
+    base.update(kwargs)
+    with pytest.raises(ValueError, match=name):
+        World(**base)
+
+
+def test_set_state_refuses_a_boolean_mask_for_worlds():
+    w = World(np.zeros((2, 1, 3)), [0.1], [1.0], ks=1e3, dt=1e-3)
+    with pytest.raises(ValueError, match="worlds"):
+        w.set_state(positions=np.zeros((1, 1, 3)), worlds=np.array([True, False]))

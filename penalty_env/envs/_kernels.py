@@ -132,14 +132,20 @@ def _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_
         b = worlds[t]
         status[b] = 0
         if stepping[b]:
-            # the pusher's motor: F_max (a - v / v_max) along each horizontal axis (a DC motor's
-            # linear force-speed law, throttle clipped to [-1, 1]), re-evaluated every substep
+            # the pusher's motor: F_max (a - v / v_max) (a DC motor's linear force-speed law),
+            # re-evaluated every substep; the throttle a is clipped to [-1, 1] per axis and then
+            # to the unit disc, so the self-driven speed |v| = |a| v_max never exceeds v_max
+            a2 = 0.0
+            for k in range(na):
+                ak = _clip(act[b, k], -1.0, 1.0)
+                a2 += ak * ak
+            scale = 1.0 / np.sqrt(a2) if a2 > 1.0 else 1.0
             for i in range(n):
                 for k in range(D):
                     ext[b, i, k] = 0.0
             for _ in range(substeps):
                 for k in range(na):
-                    ext[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) - v[b, 0, k] * inv_vmax)
+                    ext[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) * scale - v[b, 0, k] * inv_vmax)
                 K.symplectic_euler_step(b, dt, x, v, work, ext, None, model, friction, g)
             finite = True
             for i in range(n):

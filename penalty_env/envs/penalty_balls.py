@@ -76,7 +76,9 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     at rest, none at the top speed), so the pusher's self-driven speed stays below `max_speed`.
     Ground friction takes `mu m g` of it: throttles below about 0.15 do not start a resting
     pusher (a dead zone, as with any real motor). No vertical force: the
-    pusher stays on the terrain. Finite values outside [-1, 1] are clipped; an action of the wrong
+    pusher stays on the terrain. Finite values outside [-1, 1] are clipped, and a throttle vector
+    longer than 1 is scaled to length 1 (so the pusher's speed, not just each component, stays
+    below `max_speed`); an action of the wrong
     shape, or with NaN or inf, raises `ValueError`.
 
     ## Observation Space

@@ -63,6 +63,8 @@ BROADPHASES = ("all_pairs", "grid", "auto")
 
 
 def _float_array(name: str, value, ndim: Sequence[int] | None = None) -> np.ndarray:
+    if np.asarray(value).dtype.kind not in "iuf":
+        raise ValueError(f"{name} must be an array of real numbers, got dtype {np.asarray(value).dtype}")
     try:
         arr = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -75,6 +77,8 @@ def _float_array(name: str, value, ndim: Sequence[int] | None = None) -> np.ndar
 
 
 def _positive(name: str, value) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be a number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -85,6 +89,8 @@ def _positive(name: str, value) -> float:
 
 
 def _non_negative(name: str, value) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be a number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -96,7 +102,7 @@ def _non_negative(name: str, value) -> float:
 
 def _choice(name: str, value, allowed: Iterable[str]) -> str:
     allowed = tuple(allowed)
-    if value not in allowed:
+    if not isinstance(value, str) or value not in allowed:
         raise ValueError(f"{name} must be one of {allowed}, got {value!r}")
     return value
 
@@ -197,6 +203,8 @@ class World:
 
         if isinstance(terrain, Shape):
             terrain = (terrain,)
+        if terrain is None or isinstance(terrain, (str, bytes)) or not hasattr(terrain, "__iter__"):
+            raise ValueError(f"terrain must be a Sphere, a Bowl or a sequence of them, got {terrain!r}")
         self.terrain = tuple(terrain)
         kind, center, radius = pack_terrain(self.terrain, d)
 
@@ -216,7 +224,17 @@ class World:
         self.integrator = _choice("integrator", integrator, theory.INTEGRATORS)
         self.dt = _positive("dt", dt)
         self.broadphase = _choice("broadphase", broadphase, BROADPHASES)
+        for flag, value in (("allow_unstable", allow_unstable), ("events", events)):
+            if not isinstance(value, (bool, np.bool_)):
+                raise ValueError(f"{flag} must be True or False, got {value!r}")
         self.allow_unstable = bool(allow_unstable)
+        if self.integrator == "implicit_euler" and self.damping == "no_tension":
+            # its frozen-contact Jacobian cannot see the clip: the solve would pull separating
+            # balls together, which is what no_tension exists to prevent
+            raise ValueError(
+                "damping='no_tension' is not supported with integrator='implicit_euler' (the linearised "
+                "solve would reintroduce tension); use damping='linear' or an explicit integrator"
+            )
         # Friction's viscous branch -kf v_t is integrated explicitly (also by implicit Euler):
         # it brings sliding to rest without overshoot only while kf dt / m_eff <= 1 (at 2 it
         # reverses v_t every step and feeds energy in). The default sits at that limit, which is
@@ -375,6 +393,8 @@ class World:
     def set_state(self, positions=None, velocities=None, worlds=None) -> None:
         """Overwrite positions and/or velocities, of all worlds or of the worlds indexed by
         ``worlds`` (then the arrays are ``(len(worlds), n, d)``)."""
+        if worlds is not None and np.asarray(worlds).dtype.kind not in "iu":
+            raise ValueError(f"worlds must be integer world indices, got dtype {np.asarray(worlds).dtype}")
         idx = slice(None) if worlds is None else np.atleast_1d(np.asarray(worlds, dtype=np.int64))
         if worlds is not None and (idx.size and (idx.min() < 0 or idx.max() >= self.n_worlds)):
             raise ValueError(f"worlds must index 0..{self.n_worlds - 1}, got {worlds!r}")
