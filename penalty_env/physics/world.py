@@ -24,7 +24,7 @@ __all__ = ["World", "KernelState", "GRID_MIN_BALLS", "LARGE_WORLD_MIN_BALLS", "S
 
 # ``broadphase="auto"`` uses the grid from this many balls per world (measured crossover:
 # ``python -m penalty_env.bench core``, section c).
-GRID_MIN_BALLS = 48
+GRID_MIN_BALLS = 64
 # A world this large is stepped with its force loop parallel over balls (symplectic / explicit
 # Euler) instead of one world per thread.
 LARGE_WORLD_MIN_BALLS = 4096
