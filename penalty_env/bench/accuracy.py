@@ -21,13 +21,15 @@ a sparse sweep misses it). Cost is measured two ways: wall time per simulated se
 in the same run) and force evaluations per simulated second (event location counts its trial,
 landing and crossing evaluations).
 
-Output (``--out``, default ``docs/``): ``accuracy.csv`` (every run), ``accuracy_<damping>_zeta<z>.png``
-(log-log error against force evaluations per simulated second, one panel per scenario and metric,
-one line per integrator, dashed with event location, diverged runs as crosses along the top, the
-Pareto front in grey, the configuration :func:`penalty_env.physics.configure` picks for a 1% restitution
-tolerance as a star) and ``accuracy_walltime.png`` (the same for zeta = 0.3 against wall time).
+Output (``--out``, default ``docs/``; ``--quick`` writes to a temporary folder): ``accuracy.csv.gz``
+(every run), ``accuracy_linear_zeta0.3.png`` (log-log error against force evaluations per simulated
+second, one panel per scenario and metric, one line per integrator, dashed with event location,
+diverged runs as crosses along the top, the Pareto front in grey, the configuration
+:func:`penalty_env.physics.configure.configure` picks for a 1% tolerance as a star),
+``accuracy_walltime.png`` (the same against wall time) and ``accuracy_more.png`` (zeta = 0.1 and
+the no-tension mode).
 ``--fit`` also fits ``err = C (steps per contact)^-p`` per integrator, event mode, damping mode
-and zeta (scenarios 1 and 2, extra zetas 0.5 and 0.7 on scenario 1) and rewrites the measured
+and zeta (worst of scenarios 1 and 2, with extra zetas 0.5 and 0.7) and rewrites the measured
 block of ``penalty_env/physics/configure.py``. ``--quick`` (a CI smoke run, < 2 minutes once
 compiled) sweeps fewer steps, phases, zetas and methods.
 """
@@ -82,6 +84,7 @@ class Measure:
     evals_per_sim_s: float  # force evaluations per simulated second, per world
     events_per_sim_s: float = 0.0
     fallbacks: int = 0
+    sim_time: float = math.nan  # simulated seconds per world
     extra: dict = field(default_factory=dict)
 
 
@@ -90,8 +93,8 @@ def _world(x, v, radii, masses, *, integrator, events, damping, ks, kd, dt, grav
                  integrator=integrator, dt=dt, allow_unstable=True, events=events, **kw)
 
 
-def _cost(w: World, nsteps: int, wall: float) -> tuple[float, float, float, int]:
-    """(wall / sim s, evals / sim s, events / sim s, fallbacks), per world."""
+def _cost(w: World, nsteps: int, wall: float) -> tuple[float, float, float, int, float]:
+    """(wall / sim s, evals / sim s, events / sim s, fallbacks, sim s), per world."""
     sim = nsteps * w.dt
     B = w.n_worlds
     if w.events:
@@ -99,7 +102,7 @@ def _cost(w: World, nsteps: int, wall: float) -> tuple[float, float, float, int]
         evals, n_ev, fb = st["force_evaluations"] / B, st["events"] / B, st["fallbacks"]
     else:
         evals, n_ev, fb = w.force_evaluations_per_step * nsteps, 0.0, 0
-    return wall / (B * sim), evals / sim, n_ev / sim, fb
+    return wall / (B * sim), evals / sim, n_ev / sim, fb, sim
 
 
 def _timed_steps(w: World, nsteps: int, record=None):
@@ -311,8 +314,8 @@ def resting(integrator, events, damping, zeta, spc, phases=16, *, mass=DROP_MASS
 
 
 def pile_scene(n=PILE_N, worlds=PILE_WORLDS, seed=0):
-    """``worlds`` random initial states of n balls in the bowl: scattered in its lower part
-    (no overlap), velocities uniform in a ball of radius 1.5 m/s."""
+    """``worlds`` random initial states of n balls scattered (without overlap) in the spherical
+    cavity of ``PILE_BOWL``, velocities uniform in a ball of radius 1.5 m/s."""
     rng = np.random.default_rng(seed)
     r = PILE_RADIUS
     c = np.array(PILE_BOWL.center)
@@ -322,7 +325,7 @@ def pile_scene(n=PILE_N, worlds=PILE_WORLDS, seed=0):
         pts = []
         while len(pts) < n:
             p = c + rng.uniform(-1.0, 1.0, 3) * R
-            if np.linalg.norm(p - c) > R - r - 0.01 or p[2] > 0.9 * R:
+            if np.linalg.norm(p - c) > R - r - 0.01:
                 continue
             if all(np.linalg.norm(p - q) > 2 * r + 0.01 for q in pts):
                 pts.append(p)
@@ -415,8 +418,13 @@ def count_pile_contacts(spc=64, t_end=PILE_T_ELASTIC, worlds=PILE_WORLDS) -> flo
 # The sweep
 # --------------------------------------------------------------------------------------------
 
+def supported(integrator, damping):
+    """World refuses implicit Euler with the no-tension clip (its linearised solve cannot see it)."""
+    return not (integrator == "implicit_euler" and damping == "no_tension")
+
+
 FIELDS = ["scenario", "metric", "integrator", "events", "damping", "zeta", "steps_per_contact", "error",
-          "diverged", "wall_per_sim_s", "evals_per_sim_s", "events_per_sim_s", "fallbacks"]
+          "diverged", "wall_per_sim_s", "evals_per_sim_s", "events_per_sim_s", "fallbacks", "sim_time"]
 
 
 def _rows(scenario, integ, events, damping, zeta, spc, m: Measure):
@@ -424,7 +432,17 @@ def _rows(scenario, integ, events, damping, zeta, spc, m: Measure):
         yield dict(scenario=scenario, metric=metric, integrator=integ, events=int(events), damping=damping,
                    zeta=zeta, steps_per_contact=spc, error=err, diverged=int(m.diverged),
                    wall_per_sim_s=m.wall_per_sim_s, evals_per_sim_s=m.evals_per_sim_s,
-                   events_per_sim_s=m.events_per_sim_s, fallbacks=m.fallbacks)
+                   events_per_sim_s=m.events_per_sim_s, fallbacks=m.fallbacks, sim_time=m.sim_time)
+
+
+def _drop_ends(zeta, damping):
+    """Does the dropped ball leave the floor again (gravity holds a heavily damped one)?"""
+    omega = math.sqrt(DROP_KS / DROP_MASS)
+    try:
+        CF.contact_response(zeta, damping, G / (omega * DROP_SPEED))
+    except ValueError:
+        return False
+    return True
 
 
 def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pile", "damped_pile"), fit=False):
@@ -449,13 +467,15 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
     fit_zetas = zetas + (FIT_EXTRA_ZETAS if fit and not quick else ())
     for integ, ev in methods:
         for damping in dampings:
+            if not supported(integ, damping):
+                continue
             for zeta in fit_zetas:
                 if zeta == 0.0 and damping == "no_tension":
                     continue  # identical to linear without damping
                 for spc in spcs:
                     if "pair" in scenarios:
                         emit("pair", integ, ev, damping, zeta, spc, pair_collision(integ, ev, damping, zeta, spc, phases))
-                    if zeta in zetas and "drop" in scenarios:
+                    if "drop" in scenarios and _drop_ends(zeta, damping):
                         emit("drop", integ, ev, damping, zeta, spc, bowl_drop(integ, ev, damping, zeta, spc, phases))
                     if zeta in zetas and zeta > 0.0 and "rest" in scenarios:
                         emit("rest", integ, ev, damping, zeta, spc, resting(integ, ev, damping, zeta, spc))
@@ -472,6 +492,8 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
         for damping in dampings:
             for zeta in [z for z in zetas if z > 0]:
                 for integ, ev in methods:
+                    if not supported(integ, damping):
+                        continue
                     for spc in pile_spcs:
                         emit("damped_pile", integ, ev, damping, zeta, spc,
                              damped_pile(integ, ev, damping, zeta, spc, spc_reference=spc_ref, t_end=t_dp,
@@ -479,19 +501,28 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
     return rows
 
 
+def _open(path, mode):
+    if path.endswith(".gz"):
+        import gzip
+
+        return gzip.open(path, mode + "t", newline="")
+    return open(path, mode, newline="")
+
+
 def write_csv(rows, path):
-    with open(path, "w", newline="") as f:
+    """Every run; a ``.gz`` path is written gzipped."""
+    with _open(path, "w") as f:
         wr = csv.DictWriter(f, fieldnames=FIELDS)
         wr.writeheader()
         for r in rows:
-            wr.writerow({k: (f"{r[k]:.6g}" if isinstance(r[k], float) else r[k]) for k in FIELDS})
+            wr.writerow({k: (f"{r[k]:.5g}" if isinstance(r[k], float) else r[k]) for k in FIELDS})
 
 
 def read_csv(path):
     rows = []
-    with open(path) as f:
+    with _open(path, "r") as f:
         for r in csv.DictReader(f):
-            for k in ("zeta", "error", "wall_per_sim_s", "evals_per_sim_s", "events_per_sim_s"):
+            for k in ("zeta", "error", "wall_per_sim_s", "evals_per_sim_s", "events_per_sim_s", "sim_time"):
                 r[k] = float(r[k])
             for k in ("events", "diverged", "steps_per_contact", "fallbacks"):
                 r[k] = int(float(r[k]))
@@ -506,20 +537,23 @@ def read_csv(path):
 FLOOR = 1e-11  # below this the worst case is round-off, not truncation
 
 
-def fit_power_law(spcs, errs):
-    """Fit err = C spc^-p on the asymptotic part of a convergence curve.
+def fit_power_law(spcs, errs, tail=4):
+    """The error model of one convergence curve: the measured worst cases, and a power law
+    err = C spc^-p fitted to its asymptotic tail.
 
-    Points considered: finite, below 0.2 and above the round-off floor; the fit runs over the
-    longest tail of those (at least 3 points) and C is then the upper envelope max(err spc^p), so
-    the model never under-predicts a measured point of its range. Returns None if fewer than 3
-    usable points.
+    Points used: finite, below 0.2 and above the round-off floor, from the first point after which
+    every point is such (or at the floor); a low plateau at the end (below 1e-6, falling less than
+    1.5x per doubling) is the measurement's floor and becomes the model's ``floor``. ``pts`` keeps them as a non-increasing envelope (each
+    error replaced by the largest at that or more steps per contact), which :func:`configure`
+    interpolates in log-log; ``p`` is the least-squares slope of the last ``tail`` points (the
+    asymptotic order) and ``C`` the smallest constant that bounds them, for extrapolating beyond
+    the sweep. Returns None if fewer than 3 usable points.
     """
     spcs = np.asarray(spcs, dtype=float)
     errs = np.asarray(errs, dtype=float)
     order = np.argsort(spcs)
     spcs, errs = spcs[order], errs[order]
     good = np.isfinite(errs) & (errs < 0.2) & (errs > FLOOR)
-    # the tail: from the first good point after which every point is good or at the floor
     idx = np.flatnonzero(good)
     if idx.size < 3:
         return None
@@ -530,15 +564,21 @@ def fit_power_law(spcs, errs):
             break
     sel = np.arange(start, len(spcs))
     sel = sel[good[sel]]
+    after = errs[sel[-1] + 1:] if sel.size else errs[:0]
+    floor = float(after[after <= FLOOR].max()) if np.any(after <= FLOOR) else 0.0
+    # a low plateau at the end is the measurement's floor (round-off, the interpolation of the
+    # peak), not convergence: keep it out of the tail fit, as the model's floor
+    while sel.size > 3 and errs[sel[-1]] < 1e-6 and errs[sel[-2]] / errs[sel[-1]] < 1.5:
+        floor = max(floor, float(errs[sel[-1]]))
+        sel = sel[:-1]
     if sel.size < 3:
         return None
-    ls, le = np.log(spcs[sel]), np.log(errs[sel])
-    p = -np.polyfit(ls, le, 1)[0]
-    p = max(p, 0.1)
-    C = float(np.max(errs[sel] * spcs[sel] ** p))
-    floor = float(errs[sel[-1]:][errs[sel[-1]:] <= FLOOR].max()) if np.any(errs[sel[-1]:] <= FLOOR) else 0.0
-    return {"C": C, "p": float(p), "spc_min": float(spcs[sel[0]]), "spc_max": float(spcs[-1]),
-            "floor": max(floor, FLOOR)}
+    env = np.maximum.accumulate(errs[sel][::-1])[::-1]
+    last = sel[-tail:]
+    p = float(max(-np.polyfit(np.log(spcs[last]), np.log(errs[last]), 1)[0], 0.1))
+    C = float(np.max(errs[last] * spcs[last] ** p))
+    return {"C": C, "p": p, "spc_min": float(spcs[sel[0]]), "spc_max": float(spcs[sel[-1]]),
+            "floor": max(floor, FLOOR), "pts": [[float(a), float(b)] for a, b in zip(spcs[sel], env)]}
 
 
 def fit_models(rows):
@@ -546,7 +586,7 @@ def fit_models(rows):
     models = {}
     groups = {}
     for r in rows:
-        if r["scenario"] not in ("pair", "drop") or r["metric"] not in CF.METRICS:
+        if r["scenario"] not in ("pair", "drop") or r["metric"] not in ("restitution", "peak_overlap"):
             continue
         key = (r["integrator"], bool(r["events"]), r["damping"], r["metric"], r["zeta"])
         err = math.inf if r["diverged"] else r["error"]
@@ -558,26 +598,38 @@ def fit_models(rows):
         res = fit_power_law(spcs, [pts[s] for s in spcs])
         if res is None:
             continue
-        models[CF._model_key(integ, ev, damping, metric, zeta)] = {k: float(f"{v:.4g}") for k, v in res.items()}
+        res["pts"] = tuple((int(a), float(f"{b:.4g}")) for a, b in res["pts"])
+        models[CF._model_key(integ, ev, damping, metric, zeta)] = {k: (float(f"{v:.4g}") if k != "pts" else v)
+                                                                   for k, v in res.items()}
         if zeta == 0.0:  # no damping: both damping modes are the same law
             models[CF._model_key(integ, ev, "no_tension", metric, zeta)] = models[CF._model_key(integ, ev, damping, metric, zeta)]
     return models
 
 
 def measure_costs(rows):
-    """COST_PER_STEP (wall time per step relative to symplectic Euler, elastic pile, no events) and
-    EVENT_EXTRA_EVALS (extra force-evaluation equivalents per contact, pair collision)."""
-    per_step = {}
-    for integ in INTEGRATORS:
-        ratios = []
+    """COST_PER_STEP and EVENT_EXTRA_EVALS, in force-evaluation equivalents.
+
+    A step of the explicit methods costs its force evaluations (1, RK4 4): counted, so the model
+    does not inherit the noise of wall times on a shared machine. Implicit Euler's one evaluation
+    hides its conjugate-gradient products, so its cost is its measured wall time per step relative
+    to symplectic Euler (median over the pile runs without events, zeta 0 and 0.3 linear, 8 steps
+    per contact and up, that did not diverge). EVENT_EXTRA_EVALS: the extra evaluations per
+    contact of event location (pair collision, 90th percentile), times the integrator's cost per
+    evaluation."""
+    per_step = {"explicit_euler": 1.0, "symplectic_euler": 1.0, "velocity_verlet": 1.0, "rk4": 4.0}
+
+    def wall(scen, integ, zeta, spc):
+        return [r["wall_per_sim_s"] for r in rows if r["scenario"] == scen and r["integrator"] == integ
+                and not r["events"] and r["steps_per_contact"] == spc and r["zeta"] == zeta
+                and r["damping"] == "linear" and not r["diverged"] and math.isfinite(r["wall_per_sim_s"])]
+
+    ratios = []
+    for scen, zeta in (("elastic_pile", 0.0), ("damped_pile", 0.3)):
         for spc in SPCS:
-            def wall(i):
-                return [r["wall_per_sim_s"] for r in rows if r["scenario"] == "elastic_pile" and r["integrator"] == i
-                        and not r["events"] and r["steps_per_contact"] == spc and math.isfinite(r["wall_per_sim_s"])]
-            a, b = wall(integ), wall("symplectic_euler")
-            if a and b:
+            a, b = wall(scen, "implicit_euler", zeta, spc), wall(scen, "symplectic_euler", zeta, spc)
+            if spc >= 8 and a and b:
                 ratios.append(a[0] / b[0])
-        per_step[integ] = float(f"{np.median(ratios):.3g}") if ratios else {"rk4": 4.0}.get(integ, 1.0)
+    per_step["implicit_euler"] = float(f"{np.median(ratios):.3g}") if ratios else 8.0
     extra = {}
     evals_per_step = {"rk4": 4}
     for integ in INTEGRATORS:
@@ -592,8 +644,7 @@ def measure_costs(rows):
                      and q["steps_per_contact"] == r["steps_per_contact"]]
             if not plain:
                 continue
-            pair_tc = theory.contact_time(PAIR_KS, 2 * r["zeta"] * math.sqrt(PAIR_KS * 0.75), 0.75)
-            extra_evals = (r["evals_per_sim_s"] - plain[0]["evals_per_sim_s"]) * pair_tc * 1.6  # run length 1.6 t_c
+            extra_evals = (r["evals_per_sim_s"] - plain[0]["evals_per_sim_s"]) * r["sim_time"]  # one contact per run
             # one contact per run: extra evals per contact, in units of the integrator's cost per eval
             vals.append(extra_evals * per_step[integ] / evals_per_step.get(integ, 1))
         if vals:
@@ -651,7 +702,76 @@ def _pareto(points):
     return front
 
 
+def _panel(ax, rows, scen, metric, label, damping, zeta, cost, auto, floor=1e-13):
+    """One scenario and metric: error against cost, one line per method, diverged runs as crosses
+    along the top, the Pareto front, and configure's choice as a star."""
+    import matplotlib.ticker
+
+    z = 0.0 if scen == "elastic_pile" else zeta
+    d = "linear" if scen == "elastic_pile" else damping
+    sel = [r for r in rows if r["scenario"] == scen and r["metric"] == metric and r["zeta"] == z and r["damping"] == d]
+    if not sel:
+        ax.set_title(label + " (n/a)", fontsize=8)
+        ax.axis("off")
+        return
+    good = [r for r in sel if not r["diverged"] and r["error"] > 0 and math.isfinite(r[cost])]
+    top = max([r["error"] for r in good] + [1.0]) * 3
+    for integ in INTEGRATORS:
+        for ev in (0, 1):
+            pts = sorted((r[cost], max(r["error"], floor)) for r in good if r["integrator"] == integ and r["events"] == ev)
+            if pts:
+                ax.plot(*zip(*pts), color=COLORS[integ], ls="--" if ev else "-", marker="o" if ev else ".",
+                        ms=3, lw=1.2 if ev else 1.0, label=f"{SHORT[integ]}{' + events' if ev else ''}")
+            bad = [r for r in sel if r["diverged"] and r["integrator"] == integ and r["events"] == ev]
+            if bad:
+                xs = [_nominal_cost(r, cost, sel) for r in bad]
+                ax.plot(xs, [top] * len(xs), ls="none", marker="x", color=COLORS[integ], ms=5)
+    front = _pareto([(r[cost], max(r["error"], floor)) for r in good])
+    if front:
+        ax.step(*zip(*front), where="post", color="0.5", lw=3, alpha=0.35, zorder=0)
+    if auto is not None and scen in ("pair", "drop", "rest"):
+        integ, ev, spc = auto
+        near = [r for r in good if r["integrator"] == integ and r["events"] == int(ev)]
+        if len(near) >= 2:
+            # configure's steps per contact, placed along its method's measured line (log-log)
+            c_s = np.array([r["steps_per_contact"] for r in near], float)
+            o = np.argsort(c_s)
+            c_c = np.log(np.array([r[cost] for r in near]))[o]
+            c_e = np.log(np.array([max(r["error"], floor) for r in near]))[o]
+            xc = float(np.exp(np.interp(np.log(spc), np.log(c_s[o]), c_c)))
+            ye = float(np.exp(np.interp(np.log(spc), np.log(c_s[o]), c_e)))
+            ax.plot([xc], [ye], marker="*", ms=14, color="gold", mec="k", zorder=5)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(floor, top * 2)
+    ax.grid(True, which="major", alpha=0.3)
+    ax.set_title(label, fontsize=9)
+    ax.set_xlabel("force evaluations / simulated s" if cost == "evals_per_sim_s" else "wall s / simulated s (per world)",
+                  fontsize=8)
+    ax.set_ylabel("worst-case relative error", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+
+
+def _legend(fig, ax, accuracy, **kw):
+    from matplotlib.lines import Line2D
+
+    handles, labels = ax.get_legend_handles_labels()
+    handles += [Line2D([], [], ls="none", marker="x", color="k"), Line2D([], [], color="0.5", lw=3, alpha=0.35),
+                Line2D([], [], ls="none", marker="*", ms=12, color="gold", mec="k")]
+    labels += ["diverged", "Pareto front", f"configure(accuracy={accuracy:g})"]
+    fig.legend(handles, labels, frameon=False, fontsize=8, **kw)
+
+
+def _auto_or_none(zeta, damping, accuracy):
+    try:
+        return _auto_choice(zeta, damping, accuracy) if CF.ERROR_MODELS else None
+    except ValueError:
+        return None
+
+
 def plot(rows, path, damping, zeta, cost="evals_per_sim_s", accuracy=0.01, title=None):
+    """Every scenario for one damping mode and zeta (zeta = 0 in the elastic pile)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -663,68 +783,36 @@ def plot(rows, path, damping, zeta, cost="evals_per_sim_s", accuracy=0.01, title
     fig, axes = plt.subplots(nrow, ncol, figsize=(4.0 * ncol, 3.3 * nrow), squeeze=False)
     for ax in axes.flat[len(panels):]:
         ax.axis("off")
-    auto = None
-    try:
-        auto = _auto_choice(zeta, damping, accuracy) if CF.ERROR_MODELS else None
-    except ValueError:
-        auto = None
+    auto = _auto_or_none(zeta, damping, accuracy)
     for ax, (scen, metric, label) in zip(axes.flat, panels):
-        z = 0.0 if scen == "elastic_pile" else zeta
-        d = "linear" if scen == "elastic_pile" else damping
-        sel = [r for r in rows if r["scenario"] == scen and r["metric"] == metric and r["zeta"] == z and r["damping"] == d]
-        if not sel:
-            ax.set_title(label + " (n/a)", fontsize=8)
-            ax.axis("off")
-            continue
-        good = [r for r in sel if not r["diverged"] and r["error"] > 0 and math.isfinite(r[cost])]
-        top = max([r["error"] for r in good] + [1.0]) * 3
-        floor = 1e-13
-        for integ in INTEGRATORS:
-            for ev in (0, 1):
-                pts = sorted(((r[cost], max(r["error"], floor)) for r in good if r["integrator"] == integ and r["events"] == ev))
-                if pts:
-                    ax.plot(*zip(*pts), color=COLORS[integ], ls="--" if ev else "-", marker="o" if ev else ".",
-                            ms=3, lw=1.2 if ev else 1.0, label=f"{SHORT[integ]}{' + events' if ev else ''}")
-                bad = [r for r in sel if r["diverged"] and r["integrator"] == integ and r["events"] == ev]
-                if bad:
-                    # diverged: cost from the nominal force evaluations (the run did not finish)
-                    xs = [_nominal_cost(r, cost, sel) for r in bad]
-                    ax.plot(xs, [top] * len(xs), ls="none", marker="x", color=COLORS[integ], ms=5)
-        front = _pareto([(r[cost], max(r["error"], floor)) for r in good])
-        if front:
-            ax.step(*zip(*front), where="post", color="0.5", lw=3, alpha=0.35, zorder=0)
-        if auto is not None and scen in ("pair", "drop", "rest"):
-            integ, ev, spc = auto
-            near = [r for r in good if r["integrator"] == integ and r["events"] == int(ev)]
-            if near:
-                # cost of the chosen spc interpolated in log-log along its line
-                c_s = np.array([r["steps_per_contact"] for r in near], float)
-                c_c = np.array([r[cost] for r in near])
-                c_e = np.array([max(r["error"], floor) for r in near])
-                o = np.argsort(c_s)
-                xc = float(np.exp(np.interp(np.log(spc), np.log(c_s[o]), np.log(c_c[o]))))
-                ye = float(np.exp(np.interp(np.log(spc), np.log(c_s[o]), np.log(c_e[o]))))
-                ax.plot([xc], [ye], marker="*", ms=14, color="gold", mec="k", zorder=5)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_ylim(floor, top * 2)
-        ax.grid(True, which="major", alpha=0.3)
-        ax.set_title(label, fontsize=9)
-        ax.set_xlabel("force evaluations / simulated s" if cost == "evals_per_sim_s" else "wall s / simulated s (per world)",
-                      fontsize=8)
-        ax.set_ylabel("worst-case relative error", fontsize=8)
-        ax.tick_params(labelsize=7)
-    handles, labels = axes.flat[0].get_legend_handles_labels()
-    from matplotlib.lines import Line2D
-
-    handles += [Line2D([], [], ls="none", marker="x", color="k"), Line2D([], [], color="0.5", lw=3, alpha=0.35),
-                Line2D([], [], ls="none", marker="*", ms=12, color="gold", mec="k")]
-    labels += ["diverged", "Pareto front", f"configure(accuracy={accuracy:g})"]
-    fig.legend(handles, labels, loc="lower right", ncol=2, fontsize=8, frameon=False,
-               bbox_to_anchor=(0.99, 0.02))
+        _panel(ax, rows, scen, metric, label, damping, zeta, cost, auto)
+    _legend(fig, axes.flat[0], accuracy, loc="lower right", ncol=2, bbox_to_anchor=(0.99, 0.02))
     fig.suptitle(title or f"Speed against accuracy: damping {damping}, zeta = {zeta:g} (zeta = 0 in panel 4)", fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.96))
-    fig.savefig(path, dpi=64)
+    fig.savefig(path, dpi=60)
+    plt.close(fig)
+
+
+MORE_PANELS = [("pair", "restitution", "pair: restitution"), ("drop", "peak_overlap", "ball into bowl: peak overlap"),
+               ("rest", "resting_overlap", "resting overlap"), ("damped_pile", "trajectory", "damped pile: position / r")]
+
+
+def plot_more(rows, path, combos=(("linear", 0.1), ("no_tension", 0.1), ("no_tension", 0.3)), accuracy=0.01):
+    """The other zetas and the no-tension mode, four panels per row."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(combos), len(MORE_PANELS), figsize=(16, 3.1 * len(combos) + 0.6), squeeze=False)
+    for row, (damping, zeta) in zip(axes, combos):
+        auto = _auto_or_none(zeta, damping, accuracy)
+        for ax, (scen, metric, label) in zip(row, MORE_PANELS):
+            _panel(ax, rows, scen, metric, f"{damping}, zeta {zeta:g}: {label}", damping, zeta, "evals_per_sim_s", auto)
+    _legend(fig, axes[0, 0], accuracy, loc="lower center", ncol=7)
+    fig.suptitle("Speed against accuracy: other damping ratios and the no-tension mode", fontsize=11)
+    fig.tight_layout(rect=(0, 0.07, 1, 0.96))
+    fig.savefig(path, dpi=60)
     plt.close(fig)
 
 
@@ -746,6 +834,8 @@ def _auto_choice(zeta, damping, accuracy):
     """(integrator, events, steps per contact) that configure picks for one contact of this zeta."""
     best = None
     for integ in INTEGRATORS:
+        if not supported(integ, damping):
+            continue
         for ev in (False, True):
             need = max(CF._steps_needed(integ, ev, damping, zeta, accuracy, mt) for mt in CF.METRICS)
             if not math.isfinite(need):
@@ -769,16 +859,17 @@ def _auto_choice(zeta, damping, accuracy):
 
 def make_charts(rows, out, quick=False):
     paths = []
-    combos = [("linear", 0.3)] if quick else [("linear", 0.3), ("linear", 0.1), ("linear", 0.0),
-                                              ("no_tension", 0.3), ("no_tension", 0.1)]
-    for damping, zeta in combos:
-        p = os.path.join(out, f"accuracy_{damping}_zeta{zeta:g}.png")
-        plot(rows, p, damping, zeta)
-        paths.append(p)
+    p = os.path.join(out, "accuracy_linear_zeta0.3.png")
+    plot(rows, p, "linear", 0.3)
+    paths.append(p)
     p = os.path.join(out, "accuracy_walltime.png")
     plot(rows, p, "linear", 0.3, cost="wall_per_sim_s",
-         title="Speed against accuracy: wall time (same runs), damping linear, zeta = 0.3")
+         title="Speed against accuracy: wall time per simulated second (same runs), damping linear, zeta = 0.3")
     paths.append(p)
+    if not quick:
+        p = os.path.join(out, "accuracy_more.png")
+        plot_more(rows, p)
+        paths.append(p)
     return paths
 
 
@@ -796,26 +887,60 @@ def order_table(rows, damping="linear", zeta=0.3, scenario="pair", metric="resti
     return out
 
 
+def error_table(rows, scenario="pair", metric="restitution", damping="linear", zeta=0.3, spcs=(8, 16, 32, 64, 128)):
+    """Markdown table of the worst-case error per method at some steps per contact."""
+    lines = ["| method | " + " | ".join(f"{s} steps" for s in spcs) + " |", "|---" * (len(spcs) + 1) + "|"]
+    for integ in INTEGRATORS:
+        for ev in (0, 1):
+            cells = []
+            for spc in spcs:
+                r = [q for q in rows if q["scenario"] == scenario and q["metric"] == metric and q["integrator"] == integ
+                     and q["events"] == ev and q["damping"] == damping and q["zeta"] == zeta and q["steps_per_contact"] == spc]
+                cells.append("diverged" if r and r[0]["diverged"] else (f"{100 * r[0]['error']:.2g}%" if r else "-"))
+            lines.append(f"| {SHORT[integ]}{' + events' if ev else ''} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def recommendation_table(accuracies=(0.1, 0.03, 0.01, 1e-3, 1e-4), restitutions=(0.9, 0.5, 0.2), damping="linear"):
+    """Markdown table of what :func:`configure` picks (one isolated contact, no gravity)."""
+    lines = ["| restitution accuracy | " + " | ".join(f"e = {e:g}" for e in restitutions) + " |",
+             "|---" * (len(restitutions) + 1) + "|"]
+    for acc in accuracies:
+        cells = []
+        for e in restitutions:
+            try:
+                c = CF.configure([1.0, 1.0], [0.1, 0.1], 1.0, 0.05, e, acc, damping=damping)
+                cells.append(f"{SHORT[c.integrator]}{' + events' if c.events else ''}, {c.steps_per_contact:.0f} steps "
+                             f"({c.cost_per_contact:.0f})")
+            except ValueError:
+                cells.append("none measured")
+        lines.append(f"| {100 * acc:g}% | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(prog="python -m penalty_env.bench accuracy", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="a CI-sized sweep (< 2 minutes once compiled)")
     ap.add_argument("--fit", action="store_true", help="fit the error models and rewrite configure.py's measured block")
     ap.add_argument("--out", default=None, help="folder for the CSV and PNGs (default: docs/ of the repository)")
-    ap.add_argument("--from-csv", default=None, help="skip the runs: chart (and fit) an existing accuracy.csv")
+    ap.add_argument("--from-csv", default=None, help="skip the runs: chart (and fit) an existing accuracy.csv[.gz]")
     ap.add_argument("--no-plot", action="store_true")
+    ap.add_argument("--tables", action="store_true", help="print the README's markdown tables")
     ap.add_argument("--scenarios", default="pair,drop,rest,elastic_pile,damped_pile")
     args = ap.parse_args(argv)
     out = args.out or os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "docs")
     if args.quick and args.out is None:
-        out = os.path.join(out, "quick")
+        import tempfile
+
+        out = os.path.join(tempfile.gettempdir(), "penalty_env_bench_quick")  # keep docs/ for the full run
     os.makedirs(out, exist_ok=True)
     t0 = time.perf_counter()
     if args.from_csv:
         rows = read_csv(args.from_csv)
     else:
         rows = sweep(args.quick, scenarios=tuple(args.scenarios.split(",")), fit=args.fit)
-        write_csv(rows, os.path.join(out, "accuracy.csv"))
+        write_csv(rows, os.path.join(out, "accuracy.csv.gz"))
     if args.fit:
         models = fit_models(rows)
         per_step, extra = measure_costs(rows)
@@ -832,8 +957,20 @@ def main(argv=None) -> None:
     print("convergence orders (pair restitution, linear, zeta 0.3, 16..128 steps per contact):")
     for (integ, ev), p in order_table(rows).items():
         print(f"  {SHORT[integ]:18s}{' + events' if ev else '         '}  p = {p:5.2f}")
-    if any(r["scenario"] == "elastic_pile" for r in rows):
-        print(f"elastic pile: {count_pile_contacts(t_end=PILE_T_ELASTIC / (4 if args.quick else 1), worlds=1 if args.quick else PILE_WORLDS):.0f} contacts per world")
+    located = [r for r in rows if r["scenario"] == "elastic_pile" and r["integrator"] == "rk4" and r["events"]
+               and not r["diverged"]]
+    if located:
+        r = max(located, key=lambda q: q["steps_per_contact"])
+        print(f"elastic pile: {r['events_per_sim_s'] * r['sim_time'] / 2:.0f} contacts per world "
+              f"(switches located by RK4 + events at {r['steps_per_contact']} steps per contact / 2)")
+    if args.tables:
+        print("worst-case restitution error, pair collision, linear damping, zeta = 0.3:")
+        print(error_table(rows))
+        print("configure's choice (method, steps per contact of the shortest contact, cost in force evaluations "
+              "per contact):")
+        for damping in DAMPINGS:
+            print(f"damping {damping}:")
+            print(recommendation_table(damping=damping))
     print(f"accuracy benchmark done in {time.perf_counter() - t0:.1f} s")
 
 

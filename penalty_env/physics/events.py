@@ -13,9 +13,10 @@ at the switch. This module does that for the penalty core, with the core's own s
 How (per world and per step of dt, all inside one compiled driver)
 ------------------------------------------------------------------
 1. Save the state S0 and take a *trial* step of the time left.
-2. Scan every contact for a change of status between S0 and the end (both broad phases: all
-   pairs, or the grid built at both ends). No change: the step is accepted (one scan is the only
-   overhead of a step without a switch).
+2. Scan every contact for a change of status between S0 and the end (all pairs, or one grid
+   built at the end with cells grown by the step's largest displacement). No change: the step is
+   accepted (the scan, about the cost of one force evaluation, is the only overhead of a step
+   without a switch).
 3. Otherwise find the earliest switch on the cubic Hermite interpolant of the positions from
    (x, v) at both ends, and *land* just before it: redo the step from S0 with a shorter step tau,
    and correct tau by Newton then safeguarded secant iterations on the overlap actually produced
@@ -24,17 +25,21 @@ How (per world and per step of dt, all inside one compiled driver)
    integrator's full order. (The positions an integrator produces over tau depend only on force
    evaluations inside the step, so the overlap is a smooth function of tau near the switch.)
 4. *Cross* the switch with one tiny symplectic Euler step of length
-   ``delta = (margin + GAP_TOL r) / |v_n|``: its error is O(delta^2), far below the integrator's.
+   ``delta = (margin + 3 tol) / |v_n|`` (``tol`` = GAP_TOL x radius, 1e-11, or more where the
+   coordinates are large, so the state lands clear of the round-off zone where the force
+   kernels' own contact test could disagree): its error is O(delta^2), far below the
+   integrator's.
 5. Continue from there with the time left (a loop; several switches per step are handled one by
    one, and ``MAX_CALLS`` integrator calls per step bound the work, after which the rest of the
-   step is taken plainly and counted as a fallback).
+   step is taken plainly and counted as a fallback). A contact found within ``tol`` of its
+   switch at the start of a step is crossed at once, on the side its velocity points to.
 
-The margin is ``GAP_TOL`` x radius (1e-11, or more where the coordinates are large), except for RK4, whose fourth stage is evaluated at
-``x + dt v_3``, which differs from the step's end by about dt^3 (jerk) / 12: a landing closer to the
-switch than that would let the fourth stage see the new contact set. RK4's margin is therefore
-``dt^3 |jerk_n| / 4`` (3x that estimate; the jerk along the contact normal comes from the Hermite
-interpolant of the step), and an RK4 step that ends inside that margin of a switch is treated as
-a switch too.
+The margin is ``tol``, except for RK4, whose fourth stage is evaluated at ``x + dt v_3``, which
+differs from the step's end by about dt^3 (jerk) / 12: a landing closer to the switch than that
+would let the fourth stage see the new contact set (this happens at the end of a contact when
+zeta > 0.5). RK4's margin is therefore ``dt^3 |jerk_n| / 4`` (3x that estimate; the jerk along
+the contact normal comes from the Hermite interpolant of the step), and an RK4 step that ends
+inside that margin of a switch is treated as a switch too.
 
 Not located: the no-tension clip (``damping="no_tension"`` clips the normal force at zero before
 the contact ends geometrically: a kink in the force, so the order is limited to 2 there), the
@@ -85,7 +90,7 @@ ACT_STEP, ACT_CROSS, ACT_DONE = 0, 1, 2
 CROSS_OK, CROSS_AFTER_STEP, CROSS_NO = 0, 1, 2
 KIND_PAIR, KIND_TERRAIN = 0, 1
 
-GAP_TOL = 1e-11  # landing distance before a switch and crossing overshoot, as a fraction of the radius
+GAP_TOL = 1e-11  # the switch's round-off zone (landing margin, crossing overshoot), a fraction of the radius
 MAX_CALLS = 48  # integrator calls per step before the rest of the step is taken plainly
 MAX_LAND = 10  # root-finding iterations per switch
 CROSS_MAX = 0.1  # the crossing step may be at most this fraction of dt
@@ -107,7 +112,8 @@ def allocate(B: int, n: int, d: int) -> EventBuffers:
 def stats(buffers: EventBuffers) -> dict:
     """Counters summed over worlds since the buffers were made: ``steps`` (steps of dt),
     ``integrator_calls``, ``force_evaluations`` (full contact passes, including the trial, landing and
-    crossing steps), ``events`` (switches located) and ``fallbacks`` (steps finished plainly)."""
+    crossing steps), ``events`` (switches located and crossed) and ``fallbacks`` (steps finished
+    plainly)."""
     c = buffers.counts.sum(axis=0)
     return {
         "steps": int(c[C_STEPS]),
@@ -304,14 +310,57 @@ def _consider(kind, b, i, j, g0, g1, x0, v0, x1, v1, h, rk4, model, D, ev, best)
     return best, True
 
 
+# The scan's hot loops touch every pair near contact once per step, so they test the status with
+# squared distances inline and call ``_consider`` (root finding, margins) only for the few pairs
+# that switch, or, for RK4, end within NEAR of the switch (its margin is far smaller).
+NEAR = 0.05  # fraction of the contact distance
+
+
+@njit(inline="always")
+def _pair_d2(b, i, j, x, D):
+    d2 = 0.0
+    for k in range(D):
+        dx = x[b, j, k] - x[b, i, k]
+        d2 += dx * dx
+    return d2
+
+
+@njit(inline="always")
+def _pair_check(b, i, j, d0, d1, x0, v0, x1, v1, h, rk4, model, D, ev, best, count):
+    """Status test of pair (i, j) from its squared distances at both ends."""
+    l0 = model.radii[i] + model.radii[j]
+    c0 = d0 < l0 * l0
+    c1 = d1 < l0 * l0
+    if c0 == c1:
+        if not rk4:
+            return best, count
+        near = (l0 * (1.0 - NEAR)) ** 2 if c1 else (l0 * (1.0 + NEAR)) ** 2
+        if (c1 and d1 < near) or (not c1 and d1 > near):
+            return best, count
+    best, flagged = _consider(KIND_PAIR, b, i, j, np.sqrt(d0) - l0, np.sqrt(d1) - l0, x0, v0, x1, v1, h, rk4,
+                             model, D, ev, best)
+    return best, count + (1 if flagged else 0)
+
+
+# what ``kernels.build_grid`` reads of the model: the scan builds its grid with larger cells
+_CellSize = namedtuple("_CellSize", ["cell_size"])
+
+
 @njit
-def _grid_pass(b, xa, xb, first, x0, v0, x1, v1, h, rk4, grid, model, g, ev, best, count):
-    """Pairs near contact in state ``xa`` (grid built there): each pair once, j > i. ``first``:
-    xa is the start state, so pairs are checked for any switch; otherwise (xa the end state) only
-    pairs not in contact at the start are checked (the first pass saw the others)."""
+def _grid_pass(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev, best, count):
+    """Every pair in contact at either end, through one grid built at the end state with cells
+    grown by twice the largest displacement of the step: a pair in contact at the start is then
+    still within one cell of each other at the end. Each pair once, j > i."""
     D = len(g)
-    n = xa.shape[1]
-    K.build_grid(b, xa, grid, model, g)
+    n = x1.shape[1]
+    disp2 = 0.0
+    for i in range(n):
+        d2 = 0.0
+        for k in range(D):
+            dx = x1[b, i, k] - x0[b, i, k]
+            d2 += dx * dx
+        disp2 = max(disp2, d2)
+    K.build_grid(b, x1, grid, _CellSize(model.cell_size + 2.0 * np.sqrt(disp2)), g)
     nx = grid.dims[b, 0]
     ny = grid.dims[b, 1]
     nz = grid.dims[b, 2]
@@ -327,20 +376,8 @@ def _grid_pass(b, xa, xb, first, x0, v0, x1, v1, h, rk4, grid, model, g, ev, bes
                     j = grid.items[b, idx]
                     if j <= i:
                         continue
-                    ga = _gap(KIND_PAIR, b, i, j, xa, model, D)
-                    if first:
-                        if ga >= 0.0:
-                            continue  # open at the start: the second pass checks it
-                        g0 = ga
-                        g1 = _gap(KIND_PAIR, b, i, j, x1, model, D)
-                    else:
-                        g0 = _gap(KIND_PAIR, b, i, j, x0, model, D)
-                        if g0 < 0.0:
-                            continue  # in contact at the start: seen by the first pass
-                        g1 = ga
-                    best, flagged = _consider(KIND_PAIR, b, i, j, g0, g1, x0, v0, x1, v1, h, rk4, model, D, ev, best)
-                    if flagged:
-                        count += 1
+                    best, count = _pair_check(b, i, j, _pair_d2(b, i, j, x0, D), _pair_d2(b, i, j, x1, D), x0, v0, x1,
+                                              v1, h, rk4, model, D, ev, best, count)
     return best, count
 
 
@@ -349,7 +386,7 @@ def scan(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev):
     """Every contact of world b that switches between (x0, v0) and (x1, v1) over a step of h.
 
     Returns the number of contacts found; the one whose landing point comes first is recorded in
-    ``ev`` (kind, i, j, landing fraction of the step, margin).
+    ``ev`` (kind, i, j, landing fraction of the step, margin, old side).
     """
     D = len(g)
     n = x0.shape[1]
@@ -358,20 +395,26 @@ def scan(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev):
     if grid is None:
         for i in range(n):
             for j in range(i + 1, n):
-                g0 = _gap(KIND_PAIR, b, i, j, x0, model, D)
-                g1 = _gap(KIND_PAIR, b, i, j, x1, model, D)
-                best, flagged = _consider(KIND_PAIR, b, i, j, g0, g1, x0, v0, x1, v1, h, rk4, model, D, ev, best)
-                if flagged:
-                    count += 1
+                best, count = _pair_check(b, i, j, _pair_d2(b, i, j, x0, D), _pair_d2(b, i, j, x1, D), x0, v0, x1, v1,
+                                          h, rk4, model, D, ev, best, count)
     else:
-        # a pair that switches is within reach in the grid of its contact state: of the start
-        # state if in contact there, else of the end state (the cell is at least one diameter)
-        best, count = _grid_pass(b, x0, x1, True, x0, v0, x1, v1, h, rk4, grid, model, g, ev, best, count)
-        best, count = _grid_pass(b, x1, x0, False, x0, v0, x1, v1, h, rk4, grid, model, g, ev, best, count)
+        best, count = _grid_pass(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev, best, count)
     for i in range(n):
+        r = model.radii[i]
         for s in range(model.shape_kind.shape[0]):
-            g0 = _gap(KIND_TERRAIN, b, i, s, x0, model, D)
-            g1 = _gap(KIND_TERRAIN, b, i, s, x1, model, D)
+            sign = 1.0 if model.shape_kind[s] == 0 else -1.0
+            R = model.shape_radius[s]
+            a0 = 0.0
+            a1 = 0.0
+            for k in range(D):
+                e0 = x0[b, i, k] - model.shape_center[s, k]
+                e1 = x1[b, i, k] - model.shape_center[s, k]
+                a0 += e0 * e0
+                a1 += e1 * e1
+            g0 = sign * (np.sqrt(a0) - R) - r
+            g1 = sign * (np.sqrt(a1) - R) - r
+            if (g0 < 0.0) == (g1 < 0.0) and not (rk4 and abs(g1) < NEAR * r):
+                continue
             best, flagged = _consider(KIND_TERRAIN, b, i, s, g0, g1, x0, v0, x1, v1, h, rk4, model, D, ev, best)
             if flagged:
                 count += 1
@@ -442,13 +485,13 @@ def _plain(b, dt, x, v, ev, a0, a0_valid):
 
 @njit
 def _set_cross(b, dt, gap, rate, s, m0, ev):
-    """Crossing step from a state on the old side within the margin: delta = (s gap + 2 m0) / |rate|.
+    """Crossing step from a state on the old side within the margin: delta = (s gap + 3 m0) / |rate|.
     Returns CROSS_OK, CROSS_AFTER_STEP (the switch falls after the end of this step: finish the
     step plainly, the next one crosses it) or CROSS_NO (not closing fast enough: a graze)."""
     closing = -s * rate
     if not closing > 0.0:
         return CROSS_NO
-    delta = (s * gap + 2.0 * m0) / closing  # lands 2 m0 past the switch: clear of the round-off zone
+    delta = (s * gap + 3.0 * m0) / closing  # lands ~3 m0 past the switch: clear of the round-off zone
     if not delta <= CROSS_MAX * dt:
         return CROSS_NO
     if not delta < ev.flts[b, F_TLEFT]:
@@ -477,7 +520,6 @@ def _start_landing(b, dt, x, v, ev, rk4, model, D, a0, a0_valid):
         ev.flts[b, F_TAU] = 0.0
         res = _set_cross(b, dt, g0, rate0, s, m0, ev)
         if res == CROSS_OK:
-            ev.counts[b, C_EVENTS] += 1
             return ACT_CROSS
         if res == CROSS_NO:
             # cannot cross in a short step (a graze): take the rest of the step plainly
@@ -540,7 +582,6 @@ def decide(b, dt, x, v, rk4, grid, model, g, ev, a0, a0_valid):
     m = ev.flts[b, F_MARGIN]
     if sg > 0.0 and 0.5 * m <= sg <= 2.0 * m:
         # landed: accept the sub-step, then cross the switch
-        ev.counts[b, C_EVENTS] += 1
         ev.flts[b, F_TLEFT] -= tau
         ev.flts[b, F_TAU] = 0.0
         res = _set_cross(b, dt, s * sg, rate, s, m0, ev)
@@ -593,8 +634,12 @@ def decide(b, dt, x, v, rk4, grid, model, g, ev, a0, a0_valid):
 
 
 @njit
-def after_cross(b, dt, x, v, ev, a0, a0_valid):
-    """The crossing step of F_DELTA was taken: continue with the time left."""
+def after_cross(b, dt, x, v, ev, a0, a0_valid, model, g):
+    """The crossing step of F_DELTA was taken: continue with the time left. (If the crossing fell
+    a few ulps short of the switch, the next trial crosses it at once.)"""
+    kind, i, j = ev.ints[b, I_KIND], ev.ints[b, I_I], ev.ints[b, I_J]
+    if ev.flts[b, F_SIGN] * _gap(kind, b, i, j, x, model, len(g)) < -_tol(kind, b, i, j, x, model, len(g)):
+        ev.counts[b, C_EVENTS] += 1  # a switch located and crossed (clear of the round-off zone)
     ev.flts[b, F_TAU] = ev.flts[b, F_DELTA]
     return _next_subgoal(b, dt, x, v, ev, a0, a0_valid)
 
@@ -622,7 +667,7 @@ def run_symplectic_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, frict
                     ev.counts[b, C_EVALS] += 1
                     if not ok:
                         break
-                    act = after_cross(b, dt, x, v, ev, None, None)
+                    act = after_cross(b, dt, x, v, ev, None, None, model, g)
                 if act == ACT_DONE:
                     break
             if not ok:
@@ -648,7 +693,7 @@ def run_explicit_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, frictio
                     ev.counts[b, C_EVALS] += 1
                     if not ok:
                         break
-                    act = after_cross(b, dt, x, v, ev, None, None)
+                    act = after_cross(b, dt, x, v, ev, None, None, model, g)
                 if act == ACT_DONE:
                     break
             if not ok:
@@ -676,7 +721,7 @@ def run_velocity_verlet(b0, b1, nsteps, dt, x, v, work, a0_valid, ext, grid, mod
                     a0_valid[b] = False  # the cache belongs to the state before the crossing
                     if not ok:
                         break
-                    act = after_cross(b, dt, x, v, ev, a0, a0_valid)
+                    act = after_cross(b, dt, x, v, ev, a0, a0_valid, model, g)
                 if act == ACT_DONE:
                     break
             if not ok:
@@ -702,7 +747,7 @@ def run_rk4(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, ev, s
                     ev.counts[b, C_EVALS] += 1
                     if not ok:
                         break
-                    act = after_cross(b, dt, x, v, ev, None, None)
+                    act = after_cross(b, dt, x, v, ev, None, None, model, g)
                 if act == ACT_DONE:
                     break
             if not ok:
@@ -732,7 +777,7 @@ def run_implicit_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, frictio
                     ev.counts[b, C_EVALS] += 1
                     if not ok:
                         break
-                    act = after_cross(b, dt, x, v, ev, None, None)
+                    act = after_cross(b, dt, x, v, ev, None, None, model, g)
                 if act == ACT_DONE:
                     break
             if not ok:
