@@ -40,7 +40,7 @@ def _kwargs(masses, ks=1e4, zeta=0.2, omega_dt=0.2):
     return dict(ks=ks, kd=2 * zeta * math.sqrt(ks * m_eff), dt=omega_dt / math.sqrt(ks / m_eff))
 
 
-@pytest.mark.parametrize("d,n", [(2, 60), (3, 120)])
+@pytest.mark.parametrize("d,n", [(2, 80), (3, 120)])
 def test_grid_and_all_pairs_broad_phases_give_the_same_trajectories(scatter, d, n):
     x, v, radii, masses, bowl = _bowl_scene(n, d, seed=3, scatter=scatter)
     kw = _kwargs(masses)
