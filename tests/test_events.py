@@ -41,6 +41,15 @@ def test_rk4_with_events_on_terrain_under_gravity_is_as_accurate():
     assert located.errors["peak_overlap"] < 1e-4
 
 
+def test_verlet_with_events_is_second_order_on_terrain_including_a_touch_at_a_step_end():
+    # phase 0 puts the first touch exactly at the end of a step: the state lies within round-off
+    # of the switch, where the force kernels' test and the scan's may disagree; it must still be
+    # crossed (it is, at once, on the side the ball moves to)
+    spcs = [16, 32, 64]
+    errs = [bowl_drop("velocity_verlet", True, "linear", 0.3, s, 64).errors["peak_overlap"] for s in spcs]
+    assert 1.8 < _slope(spcs, errs) < 2.3, errs
+
+
 @pytest.mark.parametrize("integrator", ["explicit_euler", "symplectic_euler", "velocity_verlet", "rk4",
                                         "implicit_euler"])
 def test_without_events_every_method_is_first_order_in_the_worst_case(integrator):

@@ -109,11 +109,15 @@ def allocate(B: int, n: int, d: int) -> EventBuffers:
     )
 
 
-def stats(buffers: EventBuffers) -> dict:
-    """Counters summed over worlds since the buffers were made: ``steps`` (steps of dt),
+def stats(world_or_buffers) -> dict:
+    """Counters of a ``World(..., events=True)`` (or its buffers), summed over its worlds since it
+    was made: ``steps`` (steps of dt),
     ``integrator_calls``, ``force_evaluations`` (full contact passes, including the trial, landing and
     crossing steps), ``events`` (switches located and crossed) and ``fallbacks`` (steps finished
     plainly)."""
+    buffers = getattr(world_or_buffers, "_events", world_or_buffers)
+    if buffers is None:
+        raise ValueError("this World steps without event location (make it with events=True)")
     c = buffers.counts.sum(axis=0)
     return {
         "steps": int(c[C_STEPS]),
@@ -314,6 +318,7 @@ def _consider(kind, b, i, j, g0, g1, x0, v0, x1, v1, h, rk4, model, D, ev, best)
 # squared distances inline and call ``_consider`` (root finding, margins) only for the few pairs
 # that switch, or, for RK4, end within NEAR of the switch (its margin is far smaller).
 NEAR = 0.05  # fraction of the contact distance
+START_ZONE = 1e-6  # a start this close to a switch (fraction of the distance) is examined by _consider
 
 
 @njit(inline="always")
@@ -331,7 +336,8 @@ def _pair_check(b, i, j, d0, d1, x0, v0, x1, v1, h, rk4, model, D, ev, best, cou
     l0 = model.radii[i] + model.radii[j]
     c0 = d0 < l0 * l0
     c1 = d1 < l0 * l0
-    if c0 == c1:
+    # a start within round-off of the switch goes to _consider too (it crosses it at once)
+    if c0 == c1 and not abs(d0 - l0 * l0) <= START_ZONE * l0 * l0:
         if not rk4:
             return best, count
         near = (l0 * (1.0 - NEAR)) ** 2 if c1 else (l0 * (1.0 + NEAR)) ** 2
@@ -413,7 +419,7 @@ def scan(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev):
                 a1 += e1 * e1
             g0 = sign * (np.sqrt(a0) - R) - r
             g1 = sign * (np.sqrt(a1) - R) - r
-            if (g0 < 0.0) == (g1 < 0.0) and not (rk4 and abs(g1) < NEAR * r):
+            if (g0 < 0.0) == (g1 < 0.0) and not (rk4 and abs(g1) < NEAR * r) and not abs(g0) <= START_ZONE * r:
                 continue
             best, flagged = _consider(KIND_TERRAIN, b, i, s, g0, g1, x0, v0, x1, v1, h, rk4, model, D, ev, best)
             if flagged:
