@@ -804,25 +804,4 @@ _RUNNERS = {
 def run(world, n: int, ext) -> None:
     """Advance every world of ``world`` (a :class:`World` made with ``events=True``) by n steps,
     spreading world ranges over threads as ``World`` does."""
-    from .world import PARALLEL_MIN_WORK, _pool, _thread_count
-
-    integ = world._integ
-    ev = world._events
-    tail = (world._x, world._v, world._work)
-    common = (world._grid, world._model, world._friction, world.gravity)
-    if integ == K.VELOCITY_VERLET:
-        args = (n, world.dt) + tail + (world._a0_valid, ext) + common + (ev, world._status)
-    elif integ == K.IMPLICIT_EULER:
-        args = (n, world.dt) + tail + (ext,) + common + (world.cg_tol, world.cg_max_iter, ev, world._status)
-    else:
-        args = (n, world.dt) + tail + (ext,) + common + (ev, world._status)
-    fn = _RUNNERS[integ]
-    B = world.n_worlds
-    threads = _thread_count()
-    if threads < 2 or B < 2 or B * world.n_balls * n < PARALLEL_MIN_WORK:
-        fn(0, B, *args)
-        return
-    bounds = np.linspace(0, B, min(threads, B) + 1).astype(int)
-    futures = [_pool().submit(fn, int(b0), int(b1), *args) for b0, b1 in zip(bounds[:-1], bounds[1:])]
-    for f in futures:
-        f.result()
+    world._run_worlds(n, ext, _RUNNERS, (world._events,))

@@ -449,18 +449,20 @@ class World:
             self._run_worlds(int(n), ext)
         self._check_status()
 
-    def _run_worlds(self, n: int, ext) -> None:
-        """Run the integrator's driver over world ranges, spread over threads when it pays."""
+    def _run_worlds(self, n: int, ext, runners=None, extra: tuple = ()) -> None:
+        """Run the integrator's driver over world ranges, spread over threads when it pays.
+        ``runners``/``extra``: another driver table and the arguments it takes before ``status``
+        (event location uses this)."""
         integ = self._integ
         tail = (self._x, self._v, self._work)
         common = (self._grid, self._model, self._friction, self.gravity)
         if integ == K.VELOCITY_VERLET:
-            args = (n, self.dt) + tail + (self._a0_valid, ext) + common + (self._status,)
+            args = (n, self.dt) + tail + (self._a0_valid, ext) + common + extra + (self._status,)
         elif integ == K.IMPLICIT_EULER:
-            args = (n, self.dt) + tail + (ext,) + common + (self.cg_tol, self.cg_max_iter, self._status)
+            args = (n, self.dt) + tail + (ext,) + common + (self.cg_tol, self.cg_max_iter) + extra + (self._status,)
         else:
-            args = (n, self.dt) + tail + (ext,) + common + (self._status,)
-        fn = _RUNNERS[integ]
+            args = (n, self.dt) + tail + (ext,) + common + extra + (self._status,)
+        fn = (runners or _RUNNERS)[integ]
         B = self.n_worlds
         threads = _thread_count()
         if threads < 2 or B < 2 or B * self.n_balls * n < PARALLEL_MIN_WORK:
