@@ -535,13 +535,17 @@ def read_csv(path):
 # --------------------------------------------------------------------------------------------
 
 FLOOR = 1e-11  # below this the worst case is round-off, not truncation
+# the models cover worst-case errors up to this (coarse steps still useful to a scene that only
+# needs a rough bounce, such as the environments); beyond it a method is too far from the oracle
+# (or about to diverge) to be worth modelling
+MODEL_MAX_ERROR = 0.6
 
 
 def fit_power_law(spcs, errs, tail=4):
     """The error model of one convergence curve: the measured worst cases, and a power law
     err = C spc^-p fitted to its asymptotic tail.
 
-    Points used: finite, below 0.2 and above the round-off floor, from the first point after which
+    Points used: finite, below MODEL_MAX_ERROR and above the round-off floor, from the first point after which
     every point is such (or at the floor); a low plateau at the end (below 1e-6, falling less than
     1.5x per doubling) is the measurement's floor and becomes the model's ``floor``. ``pts`` keeps them as a non-increasing envelope (each
     error replaced by the largest at that or more steps per contact), which :func:`configure`
@@ -553,7 +557,7 @@ def fit_power_law(spcs, errs, tail=4):
     errs = np.asarray(errs, dtype=float)
     order = np.argsort(spcs)
     spcs, errs = spcs[order], errs[order]
-    good = np.isfinite(errs) & (errs < 0.2) & (errs > FLOOR)
+    good = np.isfinite(errs) & (errs < MODEL_MAX_ERROR) & (errs > FLOOR)
     idx = np.flatnonzero(good)
     if idx.size < 3:
         return None

@@ -5,7 +5,8 @@ Prints, for the symplectic-Euler step on this machine:
   (b) one world of 1,000 / 10,000 / 100,000 balls packed in a bowl (grid): particle-substeps per
       second and the time per particle (flat from 1,000 to 100,000 is the goal);
   (c) the all-pairs / grid crossover in balls per world (``World`` uses it for ``broadphase="auto"``);
-  (d) the first-call compile time, cold (fresh cache) and warm (cache filled).
+  (d) the scalar / SIMD-lanes crossover for batched small worlds (``World`` uses it for the lanes);
+  (e) the first-call compile time, cold (fresh cache) and warm (cache filled).
 Peer figure for (b): LAMMPS's granular chute benchmark logs about 20.6 million particle-steps per
 second on one core (PHYSICS.md section 5).
 """
@@ -22,7 +23,8 @@ import time
 import numpy as np
 
 from ..physics import Bowl, World, theory
-from ..physics.world import GRID_MIN_BALLS, LARGE_WORLD_MIN_BALLS
+from ..physics.lanes import LANES
+from ..physics.world import GRID_MIN_BALLS, LANES_MAX_BALLS, LARGE_WORLD_MIN_BALLS, _thread_count
 
 LAMMPS_PARTICLE_STEPS_PER_S = 20.6e6
 
@@ -107,6 +109,30 @@ def large_world(n: int, broadphase: str = "grid") -> World:
                  dt=probe.stability_limit(), broadphase=broadphase)
 
 
+def lanes_crossover(sizes=(4, 8, 12, 16, 24, 32), n_worlds: int = 128, target_s: float = 0.3):
+    """Batched all-pairs worlds of n balls settled in a bowl: particle-substeps/s stepped one world
+    per SIMD lane against the scalar kernel (one world at a time). World uses the lanes up to
+    ``LANES_MAX_BALLS`` balls."""
+    rows = []
+    for n in sizes:
+        base = large_world(n, "all_pairs")
+        x = np.repeat(base.positions[None], n_worlds, 0)
+        x = x + np.random.default_rng(0).uniform(-0.01, 0.01, x.shape)
+        w = World(x, base.radii, base.masses, terrain=base.terrain, ks=base.ks, kd=base.kd, dt=base.dt,
+                  broadphase="all_pairs")
+        w._lane_scratch = np.zeros((max(1, _thread_count()), 4, n, 3, LANES))
+        w.step(2000)  # settle into a pile
+        x0, v0 = w.positions.copy(), w.velocities.copy()
+        rates = {}
+        for lanes in (False, True):
+            w._lanes = lanes
+            w.set_state(x0, v0)
+            rates[lanes] = _rate(w, target_s)
+        rows.append((n, rates[False], rates[True]))
+    last = max((n for n, s, v in rows if v > s), default=None)
+    return rows, last
+
+
 def crossover(sizes=(8, 16, 24, 32, 48, 64, 96, 128, 256), target_s: float = 0.3):
     rows = []
     for n in sizes:
@@ -173,8 +199,15 @@ def main(argv=None) -> None:
     print(f"    grid faster from {first} balls; World uses the grid from GRID_MIN_BALLS = {GRID_MIN_BALLS} "
           f"(parallel-over-balls from {LARGE_WORLD_MIN_BALLS})")
 
+    rows, last = lanes_crossover((4, 16, 24) if quick else (4, 8, 12, 16, 24, 32), 64 if quick else 128,
+                                 0.1 if quick else 0.3)
+    print("(d) balls  scalar M/s   SIMD lanes M/s   (batched all-pairs worlds, symplectic Euler)")
+    for n, sc, ln in rows:
+        print(f"    {n:5d}  {sc / 1e6:10.2f}  {ln / 1e6:14.2f}   {ln / sc:5.2f}x")
+    print(f"    lanes faster up to {last} balls; World uses them up to LANES_MAX_BALLS = {LANES_MAX_BALLS}")
+
     cold, warm = compile_times()
-    print(f"(d) import + first step in a fresh process: cold cache {cold:.2f} s, warm cache {warm:.2f} s (target warm < 1 s)")
+    print(f"(e) import + first step in a fresh process: cold cache {cold:.2f} s, warm cache {warm:.2f} s (target warm < 1 s)")
 
 
 if __name__ == "__main__":

@@ -1,8 +1,8 @@
 """The env's jitted step: action to motor force, physics substeps, observation and reward.
 
 One call advances the worlds listed in ``worlds`` by one control period. The physics is the core's
-own ``symplectic_euler_step`` (one force law, one integrator: the same machine code a ``World``
-runs), so a world's trajectory does not depend on which env (single, vector, SB3) steps it or on
+own symplectic Euler step in its SIMD-across-worlds form (:mod:`..physics.lanes`: a block of worlds
+per vector instruction, bit-identical world by world to ``symplectic_euler_step``), so a world's trajectory does not depend on which env (single, vector, SB3) steps it or on
 how many worlds share the batch. Everything else a step needs (the motor force, the observation,
 the reward terms, the penetration diagnostic) happens in the same call, so Python touches a
 batch once per step, and nothing is allocated.
@@ -17,6 +17,7 @@ import numpy as np
 
 from .._jit import njit
 from ..physics import kernels as K
+from ..physics import lanes as L
 
 # ``phys``: the contact model and integrator settings (float64 array)
 P_KS, P_KD, P_KS_TERRAIN, P_KD_TERRAIN, P_NO_TENSION, P_MU, P_KF, P_DT, P_SUBSTEPS, P_G = range(10)
@@ -106,10 +107,61 @@ def _observe(b, x, v, goal, obs, envp, D):
 
 
 @njit(inline="always")
-def _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
-                 shape_radius, phys, envp, goal, prev, obs, out, status, g):
+def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, envp, status, g):
+    """Advance the W worlds ``ids[:W]`` by one control period, one world per SIMD lane.
+
+    The lanes step is the core's (:func:`..physics.lanes.lanes_step`), bit-identical to
+    ``symplectic_euler_step`` world by world. ``S`` is this thread's (5, n, D, LANES) scratch: state,
+    accelerations, external force and the motor throttle. Returns the number of blown-up worlds."""
     D = len(g)
     n = x.shape[1]
+    na = act.shape[1]
+    X, V, A, E, T = S[0], S[1], S[2], S[3], S[4]
+    fmax = envp[E_MAX_FORCE]
+    inv_vmax = 1.0 / envp[E_MAX_SPEED]
+    for w in range(W):
+        b = ids[w]
+        # the throttle a is clipped to [-1, 1] per axis and then to the unit disc, so the
+        # self-driven speed |v| = |a| v_max never exceeds v_max
+        a2 = 0.0
+        for k in range(na):
+            ak = _clip(act[b, k], -1.0, 1.0)
+            a2 += ak * ak
+        scale = 1.0 / np.sqrt(a2) if a2 > 1.0 else 1.0
+        for k in range(na):
+            T[0, k, w] = _clip(act[b, k], -1.0, 1.0) * scale
+        for i in range(n):
+            for k in range(D):
+                X[i, k, w] = x[b, i, k]
+                V[i, k, w] = v[b, i, k]
+                E[i, k, w] = 0.0
+    for _ in range(substeps):
+        # the pusher's motor: F_max (a - v / v_max) (a DC motor's linear force-speed law),
+        # re-evaluated every substep
+        for k in range(na):
+            for w in range(W):
+                E[0, k, w] = fmax * (T[0, k, w] - V[0, k, w] * inv_vmax)
+        L.lanes_step(True, dt, X, V, A, E, W, model, friction, g)
+    bad = 0
+    for w in range(W):
+        b = ids[w]
+        finite = True
+        for i in range(n):
+            for k in range(D):
+                x[b, i, k] = X[i, k, w]
+                v[b, i, k] = V[i, k, w]
+                if not (np.isfinite(X[i, k, w]) and np.isfinite(V[i, k, w])):
+                    finite = False
+        if not finite:
+            status[b] = 1
+            bad += 1
+    return bad
+
+
+@njit(inline="always")
+def _step_worlds(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
+                 shape_radius, phys, envp, goal, prev, obs, out, status, g):
+    n_lanes = ids.shape[0]
     na = act.shape[1]
     # refuse a non-finite action before anything moves
     for t in range(worlds.shape[0]):
@@ -125,37 +177,26 @@ def _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_
     friction = (phys[P_MU], phys[P_KF])
     dt = phys[P_DT]
     substeps = int(phys[P_SUBSTEPS])
-    fmax = envp[E_MAX_FORCE]
-    inv_vmax = 1.0 / envp[E_MAX_SPEED]
+    D = len(g)
+    # physics: the stepping worlds, LANES at a time
     bad = 0
+    W = 0
     for t in range(worlds.shape[0]):
         b = worlds[t]
         status[b] = 0
         if stepping[b]:
-            # the pusher's motor: F_max (a - v / v_max) (a DC motor's linear force-speed law),
-            # re-evaluated every substep; the throttle a is clipped to [-1, 1] per axis and then
-            # to the unit disc, so the self-driven speed |v| = |a| v_max never exceeds v_max
-            a2 = 0.0
-            for k in range(na):
-                ak = _clip(act[b, k], -1.0, 1.0)
-                a2 += ak * ak
-            scale = 1.0 / np.sqrt(a2) if a2 > 1.0 else 1.0
-            for i in range(n):
-                for k in range(D):
-                    ext[b, i, k] = 0.0
-            for _ in range(substeps):
-                for k in range(na):
-                    ext[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) * scale - v[b, 0, k] * inv_vmax)
-                K.symplectic_euler_step(b, dt, x, v, work, ext, None, model, friction, g)
-            finite = True
-            for i in range(n):
-                for k in range(D):
-                    if not (np.isfinite(x[b, i, k]) and np.isfinite(v[b, i, k])):
-                        finite = False
-            if not finite:
-                status[b] = 1
-                bad += 1
-                continue
+            ids[W] = b
+            W += 1
+            if W == n_lanes:
+                bad += _physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, envp, status, g)
+                W = 0
+    if W > 0:
+        bad += _physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, envp, status, g)
+    # observation, reward and diagnostics, world by world
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        if status[b] != 0:
+            continue
         dg, dp = _distances(b, x, goal, envp, D)
         _observe(b, x, v, goal, obs, envp, D)
         out[b, O_MAX_OVERLAP] = K.contacts(K.MAXPEN, b, x, v, x, 0.0, 0.0, None, model, None, g)
@@ -187,18 +228,18 @@ def _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_
 
 
 @njit(nogil=True)
-def step_worlds_2d(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
+def step_worlds_2d(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
                    shape_radius, phys, envp, goal, prev, obs, out, status):
     g = (phys[P_G], phys[P_G + 1])
-    return _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
+    return _step_worlds(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
                         shape_radius, phys, envp, goal, prev, obs, out, status, g)
 
 
 @njit(nogil=True)
-def step_worlds_3d(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
+def step_worlds_3d(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
                    shape_radius, phys, envp, goal, prev, obs, out, status):
     g = (phys[P_G], phys[P_G + 1], phys[P_G + 2])
-    return _step_worlds(worlds, act, stepping, x, v, work, ext, radii, inv_mass, shape_kind, shape_center,
+    return _step_worlds(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
                         shape_radius, phys, envp, goal, prev, obs, out, status, g)
 
 

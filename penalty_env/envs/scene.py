@@ -22,7 +22,9 @@ import numba
 import numpy as np
 from gymnasium import spaces
 
-from ..physics import Bowl, World, theory
+from ..physics import Bowl, World
+from ..physics.configure import configure, zeta_for_restitution
+from ..physics.lanes import LANES
 from . import _kernels as KE
 
 __all__ = ["PenaltyBallsScene", "PARAMETERS", "check_parameters"]
@@ -41,6 +43,7 @@ PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
     "friction": (0.3, 0.0, 1.5, "Coulomb friction coefficient mu of every contact"),
     "restitution": (0.3, 0.05, 1.0, "coefficient of restitution of a pusher-ball impact"),
     "penetration_tolerance": (0.1, 0.01, 0.5, "overlap / radius of a pusher-ball impact at max_speed"),
+    "restitution_accuracy": (0.3, 0.05, 0.5, "largest relative error of a ball-ball restitution (worst case); sets the substep"),
     "max_speed": (1.0, 0.1, 5.0, "pusher motor's no-load speed, m/s"),
     "max_force": (20.0, 0.5, 500.0, "pusher motor's stall force, N"),
     "goal_tolerance": (0.1, 0.02, 0.3, "success radius around the goal, m"),
@@ -149,18 +152,26 @@ class PenaltyBallsScene:
         self.control_period = p["control_period"]
         self.goal_tolerance = p["goal_tolerance"]
 
-        # --- contact model: stiffness from a penetration tolerance, time step from stability
-        m_p, m_b = p["pusher_mass"], p["ball_mass"]
-        m_pb = m_p * m_b / (m_p + m_b)
-        delta = p["penetration_tolerance"] * min(p["pusher_radius"], p["ball_radius"])
-        # neither a head-on pusher-ball impact at the motor's top speed (ks >= m_eff v^2 / delta^2)
-        # nor the motor pressing the pusher into a blocked ball at full force (ks >= F / delta)
-        # overlaps by more than delta
-        self.ks = max(theory.stiffness_for_penetration(m_pb, p["max_speed"], delta), p["max_force"] / delta)
-        self.kd = theory.damping_for_restitution(p["restitution"], self.ks, m_pb)
-        # terrain: same spring; the ball's bounce off the terrain has the same restitution
+        # --- contact model and substep from the scene's tolerances (physics.configure): ks keeps a
+        # head-on impact at the motor's top speed (ks >= m_eff v^2 / delta^2) and the motor pressing
+        # the pusher into a blocked ball at full force (ks >= F / delta) under delta; kd gives the
+        # heaviest ball-ball contact the target restitution exactly (no-tension closed form); dt is
+        # the cheapest symplectic-Euler step whose worst-case restitution error, by the measured
+        # error models, stays within restitution_accuracy
+        self.config = configure(
+            self.masses, self.radii, max_impact_speed=p["max_speed"], penetration=p["penetration_tolerance"],
+            restitution=p["restitution"], accuracy=p["restitution_accuracy"], damping="no_tension",
+            terrain=False, integrators=("symplectic_euler",), events=False, max_dt=self.control_period,
+            max_force=p["max_force"],
+        )
+        self.ks = self.config.ks
+        self.kd = self.config.kd
+        # terrain: the same spring; its dashpot gives the ball's bounce off the terrain the same
+        # restitution. A body on the terrain is heavier than any pair's m_eff, so its contacts are
+        # longer than the pair contact configure resolved: at least as many steps per contact.
         self.ks_terrain = self.ks
-        self.kd_terrain = theory.damping_for_restitution(p["restitution"], self.ks, m_b)
+        zeta = zeta_for_restitution(p["restitution"], "no_tension")
+        self.kd_terrain = 2.0 * zeta * math.sqrt(self.ks_terrain * p["ball_mass"])
         gravity = (0.0,) * (d - 1) + (-self.gravity,)
         start = self._placeholder_positions()
         common = dict(
@@ -169,8 +180,10 @@ class PenaltyBallsScene:
             broadphase="all_pairs",
         )
         probe = World(start[0], self.radii, self.masses, dt=self.control_period, allow_unstable=True, **common)
-        dt_max = probe.stability_limit()
-        self.substeps = max(1, math.ceil(self.control_period / dt_max * (1.0 + 1e-12)))
+        dt_max = min(self.config.dt, probe.stability_limit())
+        self.substeps = max(1, math.ceil(self.control_period / dt_max))
+        if self.control_period / self.substeps > dt_max:  # rounding
+            self.substeps += 1
         self.dt = self.control_period / self.substeps
         # regularised Coulomb friction: the viscous slope kf is the largest that still brings the
         # lightest contact's sliding to rest within one substep without overshoot (kf dt / m = 1)
@@ -265,13 +278,16 @@ class PenaltyBallsScene:
     def _kernel_args(self) -> tuple:
         """The arrays the kernel steps: the World's own state and model (``World.kernel_state``),
         so ``World.positions``, ``set_state``, ``energy`` and ``max_penetration`` see what the env
-        steps. The env's kernel steps them with the core's own ``symplectic_euler_step``."""
+        steps. The env's kernel steps them with the core's symplectic Euler, a block of worlds per
+        SIMD lane (``physics.lanes``); each thread gets its own lane scratch."""
         ks = self.world.kernel_state()
         m = ks.model
         x, v = ks.x, ks.v  # (B, n, d), written in place by the kernel and by set_state
-        work, ext = ks.work, ks.ext
-        return (x, v, work, ext, m.radii, m.inv_mass, m.shape_kind, m.shape_center, m.shape_radius,
-                self._phys, self._envp, self.goal, self._prev, self.obs, self.out, self._status)
+        threads = max(1, _threads())
+        self._lane_scratch = np.zeros((threads, 5, self.n_balls, self.dim, LANES))
+        self._lane_ids = np.zeros((threads, LANES), dtype=np.int64)
+        return (x, v), (m.radii, m.inv_mass, m.shape_kind, m.shape_center, m.shape_radius,
+                        self._phys, self._envp, self.goal, self._prev, self.obs, self.out, self._status)
 
     def _split(self, worlds: np.ndarray) -> list[np.ndarray]:
         work = worlds.size * self.n_balls * self.substeps
@@ -285,11 +301,14 @@ class PenaltyBallsScene:
         self._run(self._all, self._chunks)
 
     def _run(self, worlds: np.ndarray, chunks: Sequence[np.ndarray]) -> None:
-        kernel, act, stepping, args = self._kernel, self.actions, self._stepping, self._args
+        kernel, act, stepping = self._kernel, self.actions, self._stepping
+        (x, v), tail = self._args
+        scratch, ids = self._lane_scratch, self._lane_ids
         if len(chunks) == 1:
-            code = kernel(worlds, act, stepping, *args)
+            code = kernel(worlds, act, stepping, x, v, scratch[0], ids[0], *tail)
         else:
-            futures = [_pool().submit(kernel, c, act, stepping, *args) for c in chunks]
+            futures = [_pool().submit(kernel, c, act, stepping, x, v, scratch[i], ids[i], *tail)
+                       for i, c in enumerate(chunks)]
             codes = [f.result() for f in futures]
             code = min(codes) if min(codes) < 0 else sum(codes)
         if code != KE.OK:

@@ -10,7 +10,9 @@ Conventions
 * One force law, one function: :func:`pair_contact` (sphere-sphere) and :func:`terrain_contact`
   (sphere-implicit terrain) are the only places the seed's formulas live. Every integrator, the
   energy, the implicit solver's matrix-vector product and both broad phases call them with a
-  ``mode``.
+  ``mode``. The one exception is their SIMD twin in :mod:`.lanes` (the FORCE mode, many worlds per
+  vector instruction), which must repeat the same operations in the same order: its results are
+  tested to be bit-identical to these (``tests/test_physics_lanes.py``).
 
 Modes of the contact functions
 ------------------------------

@@ -17,10 +17,11 @@ import numpy as np
 
 from . import events as _events
 from . import kernels as K
+from . import lanes as _lanes
 from . import theory
 from .shapes import Shape, pack_terrain
 
-__all__ = ["World", "KernelState", "GRID_MIN_BALLS", "LARGE_WORLD_MIN_BALLS", "STABILITY_SAFETY"]
+__all__ = ["World", "KernelState", "GRID_MIN_BALLS", "LANES_MAX_BALLS", "LARGE_WORLD_MIN_BALLS", "STABILITY_SAFETY"]
 
 # ``broadphase="auto"`` uses the grid from this many balls per world (measured crossover:
 # ``python -m penalty_env.bench core``, section c).
@@ -28,6 +29,9 @@ GRID_MIN_BALLS = 64
 # A world this large is stepped with its force loop parallel over balls (symplectic / explicit
 # Euler) instead of one world per thread.
 LARGE_WORLD_MIN_BALLS = 4096
+# All-pairs worlds of at most this many balls step one world per SIMD lane (``lanes``) with
+# symplectic / explicit Euler (measured crossover: ``python -m penalty_env.bench core``, section d).
+LANES_MAX_BALLS = 16
 # The guard allows dt <= STABILITY_SAFETY * (critical dt of the stiffest single contact). A ball
 # in several contacts at once (a stack, a pile) vibrates faster than one contact: up to sqrt(2)x
 # for a chain and about 2x for the checkerboard mode of a dense 3D packing.
@@ -258,6 +262,13 @@ class World:
             and self.use_grid
             and self._integ in (K.SYMPLECTIC_EULER, K.EXPLICIT_EULER)
         )
+        # few balls per world, all pairs, symplectic / explicit Euler: one world per SIMD lane
+        # (``lanes``: bit-identical to the scalar kernels, faster where most pairs are near)
+        self._lanes = (
+            not self.use_grid
+            and self._integ in (K.SYMPLECTIC_EULER, K.EXPLICIT_EULER)
+            and n <= LANES_MAX_BALLS
+        )
         self._model = K.Model(
             radii=self.radii,
             inv_mass=1.0 / self.masses,
@@ -280,6 +291,8 @@ class World:
         self._ext = np.zeros((B, n, d))
         self._scalar = np.zeros(B)
         self._events = _events.allocate(B, n, d) if self.events else None
+        if self._lanes:
+            self._lane_scratch = np.zeros((max(1, _thread_count()), 4, n, d, _lanes.LANES))
         if self.use_grid:
             cap = max(4 * n, 64)
             self._grid = K.Grid(
@@ -462,14 +475,28 @@ class World:
             args = (n, self.dt) + tail + (ext,) + common + (self.cg_tol, self.cg_max_iter) + extra + (self._status,)
         else:
             args = (n, self.dt) + tail + (ext,) + common + extra + (self._status,)
-        fn = (runners or _RUNNERS)[integ]
         B = self.n_worlds
         threads = _thread_count()
-        if threads < 2 or B < 2 or B * self.n_balls * n < PARALLEL_MIN_WORK:
-            fn(0, B, *args)
+        parts = 1 if threads < 2 or B < 2 or B * self.n_balls * n < PARALLEL_MIN_WORK else min(threads, B)
+        if self._lanes and runners is None:
+            # ranges in whole blocks of LANES worlds, one lane scratch per range
+            blocks = -(-B // _lanes.LANES)
+            parts = min(parts, blocks)
+            bounds = np.minimum(np.linspace(0, blocks, parts + 1).astype(int) * _lanes.LANES, B)
+            sym = integ == K.SYMPLECTIC_EULER
+            calls = [
+                (_lanes.run_lanes, (sym, int(b0), int(b1), n, self.dt, self._x, self._v, self._lane_scratch[i], ext,
+                                    self._model, self._friction, self.gravity, self._status))
+                for i, (b0, b1) in enumerate(zip(bounds[:-1], bounds[1:]))
+            ]
+        else:
+            fn = (runners or _RUNNERS)[integ]
+            bounds = np.linspace(0, B, parts + 1).astype(int)
+            calls = [(fn, (int(b0), int(b1)) + args) for b0, b1 in zip(bounds[:-1], bounds[1:])]
+        if len(calls) == 1:
+            calls[0][0](*calls[0][1])
             return
-        bounds = np.linspace(0, B, min(threads, B) + 1).astype(int)
-        futures = [_pool().submit(fn, int(b0), int(b1), *args) for b0, b1 in zip(bounds[:-1], bounds[1:])]
+        futures = [_pool().submit(fn, *a) for fn, a in calls]
         for f in futures:
             f.result()
 

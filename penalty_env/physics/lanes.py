@@ -1,0 +1,177 @@
+"""SIMD across worlds: many small worlds stepped with one world per vector lane.
+
+A world of a few balls has too little work per contact check for a CPU's vector units: the scalar
+kernels in :mod:`.kernels` test one pair of one world at a time. Here a block of ``LANES`` worlds
+is copied into a world-innermost layout ``(n, D, LANES)`` and every pair check, force and update
+runs as a loop over the block's worlds, which LLVM vectorises (AVX2 / AVX-512). The contact test is
+a mask rather than a branch, so each lane computes the same operations in the same order as the
+scalar kernel: results are bit-identical to :func:`.kernels.run_symplectic_euler` (tested), only
+faster.
+
+Used by :class:`~penalty_env.physics.World` for all-pairs scenes (few balls per world) with
+symplectic or explicit Euler, and by the environments' fused step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import njit
+from . import kernels as K
+
+# worlds per block: a block's state (x, v, a, ext of 6 balls in 3D: 37 KB) stays in L1. Measured
+# on 1,024 worlds of 6 balls, one thread: 16 lanes 11.6, 32 23.3, 64 36.3, 128 34.0, 256 33.1 M
+# particle-substeps/s (each vectorised loop pays a fixed start-up, so short blocks lose)
+LANES = 64
+
+
+@njit(inline="always")
+def pair_forces(i, j, X, V, A, W, model, friction, g):
+    """Sphere i against sphere j in every lane: :func:`.kernels.pair_contact` (FORCE), masked."""
+    D = len(g)
+    l0 = model.radii[i] + model.radii[j]
+    ks = model.ks
+    kd = model.kd
+    for w in range(W):
+        dist2 = 0.0
+        for k in range(D):
+            dx = X[j, k, w] - X[i, k, w]
+            dist2 += dx * dx
+        touch = dist2 < l0 * l0
+        dist = np.sqrt(dist2)
+        overlap = l0 - dist
+        inv = 1.0 / dist if dist > 0.0 else 0.0
+        # coincident centres take the last axis as normal, as in the scalar kernel; written as an
+        # addition (dx * inv is 0 there) because a per-component select defeats vectorisation
+        e_last = 0.0 if dist > 0.0 else 1.0
+        vn = 0.0
+        for k in range(D):
+            nk = (X[j, k, w] - X[i, k, w]) * inv + (e_last if k == D - 1 else 0.0)
+            vn += (V[j, k, w] - V[i, k, w]) * nk
+        fn = -ks * overlap + kd * vn
+        if model.no_tension:
+            fn = 0.0 if fn > 0.0 else fn
+        fn = fn if touch else 0.0
+        ft_over_vt = 0.0
+        if friction is not None:
+            vt2 = 0.0
+            for k in range(D):
+                nk = (X[j, k, w] - X[i, k, w]) * inv + (e_last if k == D - 1 else 0.0)
+                vtk = (V[j, k, w] - V[i, k, w]) - vn * nk
+                vt2 += vtk * vtk
+            vt = np.sqrt(vt2)
+            ft = min(friction[1] * vt, friction[0] * abs(fn)) / vt
+            ft_over_vt = ft if vt2 > 0.0 else 0.0
+        for k in range(D):
+            nk = (X[j, k, w] - X[i, k, w]) * inv + (e_last if k == D - 1 else 0.0)
+            fk = fn * nk
+            if friction is not None:
+                fk += ft_over_vt * ((V[j, k, w] - V[i, k, w]) - vn * nk)
+            A[i, k, w] += fk
+            A[j, k, w] -= fk
+
+
+@njit(inline="always")
+def terrain_forces(i, X, V, A, W, model, friction, g):
+    """Sphere i against every terrain shape in every lane: :func:`.kernels.terrain_contact`."""
+    D = len(g)
+    r = model.radii[i]
+    ks = model.ks_terrain
+    kd = model.kd_terrain
+    for s in range(model.shape_kind.shape[0]):
+        sign = 1.0 if model.shape_kind[s] == 0 else -1.0
+        R = model.shape_radius[s]
+        for w in range(W):
+            dist2 = 0.0
+            for k in range(D):
+                dx = X[i, k, w] - model.shape_center[s, k]
+                dist2 += dx * dx
+            dist = np.sqrt(dist2)
+            phi = sign * (dist - R)
+            pen = r - phi
+            touch = pen > 0.0
+            inv = sign / dist if dist > 0.0 else 0.0
+            e_last = 0.0 if dist > 0.0 else 1.0
+            vn = 0.0
+            for k in range(D):
+                gk = (X[i, k, w] - model.shape_center[s, k]) * inv + (e_last if k == D - 1 else 0.0)
+                vn += V[i, k, w] * gk
+            fn = ks * pen - kd * vn
+            if model.no_tension:
+                fn = 0.0 if fn < 0.0 else fn
+            fn = fn if touch else 0.0
+            ft_over_vt = 0.0
+            if friction is not None:
+                vt2 = 0.0
+                for k in range(D):
+                    gk = (X[i, k, w] - model.shape_center[s, k]) * inv + (e_last if k == D - 1 else 0.0)
+                    vtk = V[i, k, w] - vn * gk
+                    vt2 += vtk * vtk
+                vt = np.sqrt(vt2)
+                ft = min(friction[1] * vt, friction[0] * abs(fn)) / vt
+                ft_over_vt = ft if vt2 > 0.0 else 0.0
+            for k in range(D):
+                gk = (X[i, k, w] - model.shape_center[s, k]) * inv + (e_last if k == D - 1 else 0.0)
+                fk = fn * gk
+                if friction is not None:
+                    fk -= ft_over_vt * (V[i, k, w] - vn * gk)
+                A[i, k, w] += fk
+
+
+@njit(inline="always")
+def lanes_step(symplectic, dt, X, V, A, E, W, model, friction, g):
+    """One symplectic (or explicit) Euler step of the W worlds of a block, all pairs."""
+    D = len(g)
+    n = X.shape[0]
+    for i in range(n):
+        for k in range(D):
+            for w in range(W):
+                A[i, k, w] = 0.0
+    for i in range(n):
+        for j in range(i + 1, n):
+            pair_forces(i, j, X, V, A, W, model, friction, g)
+        terrain_forces(i, X, V, A, W, model, friction, g)
+    for i in range(n):
+        im = model.inv_mass[i]
+        for k in range(D):
+            gk = g[k]
+            for w in range(W):
+                if E is not None:
+                    ak = (A[i, k, w] + E[i, k, w]) * im + gk
+                else:
+                    ak = A[i, k, w] * im + gk
+                if symplectic:
+                    V[i, k, w] += dt * ak
+                    X[i, k, w] += dt * V[i, k, w]
+                else:
+                    X[i, k, w] += dt * V[i, k, w]
+                    V[i, k, w] += dt * ak
+
+
+@njit(nogil=True)
+def run_lanes(symplectic, b0, b1, nsteps, dt, x, v, scratch, ext, model, friction, g, status):
+    """Worlds b0..b1-1 of (B, n, D) state, LANES at a time; ``scratch`` is (4, n, D, LANES)."""
+    D = len(g)
+    n = x.shape[1]
+    X, V, A, E = scratch[0], scratch[1], scratch[2], scratch[3]
+    for c0 in range(b0, b1, LANES):
+        W = min(LANES, b1 - c0)
+        for i in range(n):
+            for k in range(D):
+                for w in range(W):
+                    X[i, k, w] = x[c0 + w, i, k]
+                    V[i, k, w] = v[c0 + w, i, k]
+                    if ext is not None:
+                        E[i, k, w] = ext[c0 + w, i, k]
+        for _ in range(nsteps):
+            if ext is not None:
+                lanes_step(symplectic, dt, X, V, A, E, W, model, friction, g)
+            else:
+                lanes_step(symplectic, dt, X, V, A, None, W, model, friction, g)
+        for i in range(n):
+            for k in range(D):
+                for w in range(W):
+                    x[c0 + w, i, k] = X[i, k, w]
+                    v[c0 + w, i, k] = V[i, k, w]
+        for w in range(W):
+            status[c0 + w] = K._final_status(c0 + w, True, x, v, g)
