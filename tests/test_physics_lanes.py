@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from penalty_env.physics import Bowl, Sphere, World, lanes
-from penalty_env.physics.world import LANES_MAX_BALLS
+from penalty_env.physics.world import LANES_MAX_BALLS, LANES_MIN_WORLDS
 
 
 def _scene(d, B, n, seed):
@@ -69,19 +69,22 @@ def test_lanes_match_scalar_kernel_bit_for_bit(d, integrator, damping, mu, force
 
 
 def test_lanes_used_only_where_they_pay():
-    pos, vel, terrain = _scene(3, 2, 4, seed=0)
+    pos, vel, terrain = _scene(3, LANES_MIN_WORLDS, 4, seed=0)
     kw = dict(terrain=terrain, ks=2e3, kd=3.0, dt=1e-4)
     assert World(pos, [0.08] * 4, [1.0] * 4, **kw)._lanes
+    assert not World(pos[: LANES_MIN_WORLDS - 1], [0.08] * 4, [1.0] * 4, **kw)._lanes
+    assert not World(pos[0], [0.08] * 4, [1.0] * 4, **kw)._lanes
     assert not World(pos, [0.08] * 4, [1.0] * 4, integrator="rk4", **kw)._lanes
     assert not World(pos, [0.08] * 4, [1.0] * 4, broadphase="grid", **kw)._lanes
-    big = np.random.default_rng(0).uniform(0.1, 3.0, (LANES_MAX_BALLS + 1, 3)) * [5, 5, 1]
-    assert not World(big, [0.01] * len(big), [1.0] * len(big), ks=2e3, kd=3.0, dt=1e-4)._lanes
+    big = np.random.default_rng(0).uniform(0.1, 3.0, (LANES_MIN_WORLDS, LANES_MAX_BALLS + 1, 3)) * [5, 5, 1]
+    assert not World(big, [0.01] * big.shape[1], [1.0] * big.shape[1], ks=2e3, kd=3.0, dt=1e-4)._lanes
 
 
 def test_lanes_report_a_blow_up():
-    pos, vel, terrain = _scene(3, 3, 3, seed=1)
+    pos, vel, terrain = _scene(3, LANES_MIN_WORLDS, 3, seed=1)
     w = World(pos, [0.1] * 3, [1.0] * 3, velocities=vel, terrain=terrain, ks=1e4, kd=0.0, dt=0.05,
               allow_unstable=True)
+    assert w._lanes
     with pytest.raises(FloatingPointError, match="NaN or inf"):
         for _ in range(200):
             w.step(50)
