@@ -120,7 +120,7 @@ def lanes_crossover(sizes=(4, 8, 12, 16, 24, 32), n_worlds: int = 128, target_s:
         x = x + np.random.default_rng(0).uniform(-0.01, 0.01, x.shape)
         w = World(x, base.radii, base.masses, terrain=base.terrain, ks=base.ks, kd=base.kd, dt=base.dt,
                   broadphase="all_pairs")
-        w._lane_scratch = np.zeros((max(1, _thread_count()), 4, n, 3, LANES))
+        w._lane_scratch = np.zeros((max(1, _thread_count()), 5, n, 3, LANES))
         w.step(2000)  # settle into a pile
         x0, v0 = w.positions.copy(), w.velocities.copy()
         rates = {}

@@ -111,12 +111,12 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, envp, st
     """Advance the W worlds ``ids[:W]`` by one control period, one world per SIMD lane.
 
     The lanes step is the core's (:func:`..physics.lanes.lanes_step`), bit-identical to
-    ``symplectic_euler_step`` world by world. ``S`` is this thread's (5, n, D, LANES) scratch: state,
-    accelerations, external force and the motor throttle. Returns the number of blown-up worlds."""
+    ``symplectic_euler_step`` world by world. ``S`` is this thread's (6, n, D, LANES) scratch: state,
+    accelerations, external force, the motor throttle and the pair-force buffer. Returns the number of blown-up worlds."""
     D = len(g)
     n = x.shape[1]
     na = act.shape[1]
-    X, V, A, E, T = S[0], S[1], S[2], S[3], S[4]
+    X, V, A, E, T, F = S[0], S[1], S[2], S[3], S[4], S[5, 0]
     fmax = envp[E_MAX_FORCE]
     inv_vmax = 1.0 / envp[E_MAX_SPEED]
     for w in range(W):
@@ -141,7 +141,7 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, envp, st
         for k in range(na):
             for w in range(W):
                 E[0, k, w] = fmax * (T[0, k, w] - V[0, k, w] * inv_vmax)
-        L.lanes_step(True, dt, X, V, A, E, W, model, friction, g)
+        L.lanes_step(True, dt, X, V, A, E, F, W, model, friction, g)
     bad = 0
     for w in range(W):
         b = ids[w]

@@ -284,7 +284,7 @@ class PenaltyBallsScene:
         m = ks.model
         x, v = ks.x, ks.v  # (B, n, d), written in place by the kernel and by set_state
         threads = max(1, _threads())
-        self._lane_scratch = np.zeros((threads, 5, self.n_balls, self.dim, LANES))
+        self._lane_scratch = np.zeros((threads, 6, self.n_balls, self.dim, LANES))
         self._lane_ids = np.zeros((threads, LANES), dtype=np.int64)
         return (x, v), (m.radii, m.inv_mass, m.shape_kind, m.shape_center, m.shape_radius,
                         self._phys, self._envp, self.goal, self._prev, self.obs, self.out, self._status)

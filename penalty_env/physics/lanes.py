@@ -26,8 +26,12 @@ LANES = 64
 
 
 @njit(inline="always")
-def pair_forces(i, j, X, V, A, W, model, friction, g):
-    """Sphere i against sphere j in every lane: :func:`.kernels.pair_contact` (FORCE), masked."""
+def pair_forces(i, j, X, V, A, F, W, model, friction, g):
+    """Sphere i against sphere j in every lane: :func:`.kernels.pair_contact` (FORCE), masked.
+
+    The force goes to the (D, LANES) buffer F first and is then added to i and subtracted from j
+    in separate loops: with both read-modify-write streams of A in one loop LLVM cannot prove them
+    apart and runs its scalar fallback (measured 2.8x slower)."""
     D = len(g)
     l0 = model.radii[i] + model.radii[j]
     ks = model.ks
@@ -67,8 +71,13 @@ def pair_forces(i, j, X, V, A, W, model, friction, g):
             fk = fn * nk
             if friction is not None:
                 fk += ft_over_vt * ((V[j, k, w] - V[i, k, w]) - vn * nk)
-            A[i, k, w] += fk
-            A[j, k, w] -= fk
+            F[k, w] = fk
+    for k in range(D):
+        for w in range(W):
+            A[i, k, w] += F[k, w]
+    for k in range(D):
+        for w in range(W):
+            A[j, k, w] -= F[k, w]
 
 
 @njit(inline="always")
@@ -119,7 +128,7 @@ def terrain_forces(i, X, V, A, W, model, friction, g):
 
 
 @njit(inline="always")
-def lanes_step(symplectic, dt, X, V, A, E, W, model, friction, g):
+def lanes_step(symplectic, dt, X, V, A, E, F, W, model, friction, g):
     """One symplectic (or explicit) Euler step of the W worlds of a block, all pairs."""
     D = len(g)
     n = X.shape[0]
@@ -129,7 +138,7 @@ def lanes_step(symplectic, dt, X, V, A, E, W, model, friction, g):
                 A[i, k, w] = 0.0
     for i in range(n):
         for j in range(i + 1, n):
-            pair_forces(i, j, X, V, A, W, model, friction, g)
+            pair_forces(i, j, X, V, A, F, W, model, friction, g)
         terrain_forces(i, X, V, A, W, model, friction, g)
     for i in range(n):
         im = model.inv_mass[i]
@@ -150,10 +159,11 @@ def lanes_step(symplectic, dt, X, V, A, E, W, model, friction, g):
 
 @njit(nogil=True)
 def run_lanes(symplectic, b0, b1, nsteps, dt, x, v, scratch, ext, model, friction, g, status):
-    """Worlds b0..b1-1 of (B, n, D) state, LANES at a time; ``scratch`` is (4, n, D, LANES)."""
+    """Worlds b0..b1-1 of (B, n, D) state, LANES at a time; ``scratch`` is (5, n, D, LANES)."""
     D = len(g)
     n = x.shape[1]
     X, V, A, E = scratch[0], scratch[1], scratch[2], scratch[3]
+    F = scratch[4, 0]
     for c0 in range(b0, b1, LANES):
         W = min(LANES, b1 - c0)
         for i in range(n):
@@ -165,9 +175,9 @@ def run_lanes(symplectic, b0, b1, nsteps, dt, x, v, scratch, ext, model, frictio
                         E[i, k, w] = ext[c0 + w, i, k]
         for _ in range(nsteps):
             if ext is not None:
-                lanes_step(symplectic, dt, X, V, A, E, W, model, friction, g)
+                lanes_step(symplectic, dt, X, V, A, E, F, W, model, friction, g)
             else:
-                lanes_step(symplectic, dt, X, V, A, None, W, model, friction, g)
+                lanes_step(symplectic, dt, X, V, A, None, F, W, model, friction, g)
         for i in range(n):
             for k in range(D):
                 for w in range(W):

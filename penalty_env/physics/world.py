@@ -297,7 +297,7 @@ class World:
         self._scalar = np.zeros(B)
         self._events = _events.allocate(B, n, d) if self.events else None
         if self._lanes:
-            self._lane_scratch = np.zeros((max(1, _thread_count()), 4, n, d, _lanes.LANES))
+            self._lane_scratch = np.zeros((max(1, _thread_count()), 5, n, d, _lanes.LANES))
         if self.use_grid:
             cap = max(4 * n, 64)
             self._grid = K.Grid(
