@@ -109,7 +109,7 @@ def large_world(n: int, broadphase: str = "grid") -> World:
                  dt=probe.stability_limit(), broadphase=broadphase)
 
 
-def lanes_crossover(sizes=(4, 8, 12, 16, 24, 32), n_worlds: int = 128, target_s: float = 0.3):
+def lanes_crossover(sizes=(4, 8, 12, 16, 24, 32, 48), n_worlds: int = 128, target_s: float = 0.3):
     """Batched all-pairs worlds of n balls settled in a bowl: particle-substeps/s stepped one world
     per SIMD lane against the scalar kernel (one world at a time). World uses the lanes up to
     ``LANES_MAX_BALLS`` balls."""
@@ -199,7 +199,7 @@ def main(argv=None) -> None:
     print(f"    grid faster from {first} balls; World uses the grid from GRID_MIN_BALLS = {GRID_MIN_BALLS} "
           f"(parallel-over-balls from {LARGE_WORLD_MIN_BALLS})")
 
-    rows, last = lanes_crossover((4, 16, 24) if quick else (4, 8, 12, 16, 24, 32), 64 if quick else 128,
+    rows, last = lanes_crossover((4, 16, 48) if quick else (4, 8, 12, 16, 24, 32, 48), 64 if quick else 128,
                                  0.1 if quick else 0.3)
     print("(d) balls  scalar M/s   SIMD lanes M/s   (batched all-pairs worlds, symplectic Euler)")
     for n, sc, ln in rows:
