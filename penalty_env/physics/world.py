@@ -29,6 +29,9 @@ GRID_MIN_BALLS = 64
 # A world this large is stepped with its force loop parallel over balls (symplectic / explicit
 # Euler) instead of one world per thread.
 LARGE_WORLD_MIN_BALLS = 4096
+# ... and, when it is the only world, keeps its balls in grid-cell order in memory, re-sorted every
+# this many steps (a sort costs about one grid build and a copy of the state)
+LARGE_WORLD_RESORT_STEPS = 25
 # All-pairs worlds of at most this many balls step one world per SIMD lane (``lanes``) with
 # symplectic / explicit Euler (measured crossover: ``python -m penalty_env.bench core``, section d).
 LANES_MAX_BALLS = 32
@@ -309,6 +312,17 @@ class World:
             )
         else:
             self._grid = None  # all pairs: the kernels compile without the grid code
+        # one large world keeps a copy of its state sorted by grid cell (memory locality)
+        self._sort = None
+        if self._large and B == 1:
+            # the Model with radii / inv_mass in storage order (its own arrays, permuted with the balls)
+            self._sort_model = self._model._replace(radii=self.radii.copy(), inv_mass=1.0 / self.masses)
+            self._sort = K.LargeSort(
+                x=np.zeros((1, n, d)), v=np.zeros((1, n, d)), a=np.zeros((1, n, d)), ext=np.zeros((1, n, d)),
+                perm=np.arange(n, dtype=np.int64), order=np.zeros(n, dtype=np.int64),
+                itmp=np.zeros(n, dtype=np.int64), tmp=np.zeros((n, max(d, 2))), counter=np.zeros(1, dtype=np.int64),
+                every=LARGE_WORLD_RESORT_STEPS,
+            )
         self.cg_tol = 1e-10
         self.cg_max_iter = max(50, 4 * n * d)
 
@@ -460,6 +474,9 @@ class World:
             return
         if self._events is not None:
             _events.run(self, int(n), ext)
+        elif self._sort is not None:
+            K.run_large_sorted(self._integ, int(n), self.dt, self._x, self._v, ext, self._grid, self._sort_model,
+                               self._friction, self.gravity, self._status, self._sort)
         elif self._large:
             K.run_large(self._integ, int(n), self.dt, self._x, self._v, self._work, ext, self._grid,
                         self._model, self._friction, self.gravity, self._status)
