@@ -34,7 +34,7 @@ LARGE_WORLD_MIN_BALLS = 4096
 LARGE_WORLD_RESORT_STEPS = 25
 # All-pairs worlds of at most this many balls step one world per SIMD lane (``lanes``) with
 # symplectic / explicit Euler (measured crossover: ``python -m penalty_env.bench core``, section d).
-LANES_MAX_BALLS = 32
+LANES_MAX_BALLS = 24
 # ... in batches of at least this many worlds: the vectorised loops take 16 lanes per iteration,
 # fewer run their scalar remainder (measured, 6 balls: 0.44x the scalar kernel at 1 world, 0.79x
 # at 8, 1.16x at 16, 2.3x at 32)
