@@ -8,6 +8,7 @@ starts within the substep grid), with the env's own ks, kd and dt.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from penalty_env.bench.accuracy import pair_collision
@@ -45,3 +46,25 @@ def test_a_tighter_accuracy_costs_more_substeps():
 def test_restitution_accuracy_is_range_checked():
     with pytest.raises(ValueError, match="restitution_accuracy"):
         PenaltyBallsScene(1, 3, restitution_accuracy=0.9)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(restitution=PARAMETERS["restitution"][1]),
+        dict(restitution=PARAMETERS["restitution"][2]),
+        dict(n_obstacles=3, obstacle_mass=PARAMETERS["obstacle_mass"][2], restitution=PARAMETERS["restitution"][1]),
+        dict(n_obstacles=3, obstacle_mass=PARAMETERS["obstacle_mass"][1], restitution=PARAMETERS["restitution"][1]),
+        dict(pusher_mass=PARAMETERS["pusher_mass"][2], ball_mass=PARAMETERS["ball_mass"][1],
+             restitution_accuracy=PARAMETERS["restitution_accuracy"][1]),
+    ],
+)
+def test_every_documented_parameter_range_builds_a_scene_that_steps(kwargs):
+    scene = PenaltyBallsScene(4, 3, **kwargs)
+    rngs = [np.random.default_rng(i) for i in range(4)]
+    scene.reset_worlds(range(4), rngs)
+    scene.actions[:] = 1.0
+    for _ in range(5):
+        scene.step()
+    assert np.isfinite(scene.world.positions).all()
+    assert scene.dt <= scene.world.stability_limit()

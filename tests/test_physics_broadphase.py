@@ -128,8 +128,8 @@ _THREAD_SCRIPT = textwrap.dedent(
 
     out = [str(numba.config.NUMBA_NUM_THREADS)]
     rng = np.random.default_rng(0)
-    # a batch: B worlds spread over the thread pool (enough for the SIMD-lanes path)
-    B, n, d = 40, 24, 3
+    # a batch: B worlds spread over the thread pool, on the SIMD-lanes path (3 blocks of 64)
+    B, n, d = 133, 24, 3
     side = np.arange(3) * 0.25
     lattice = np.array([[a, b, c] for a in side for b in side for c in side])[:n] + [-0.25, -0.25, 0.2]
     x = lattice[None] + rng.normal(0, 0.01, (B, n, d))
@@ -216,3 +216,11 @@ def test_large_world_storage_order_changes_only_round_off():
     np.testing.assert_array_equal(split.positions, ref.positions)
     np.testing.assert_array_equal(split.velocities, ref.velocities)
     assert ref.max_penetration() > 0.0
+    # new state: the world steps exactly as a new World made from that state
+    x1, v1 = ref.positions.copy(), ref.velocities.copy()
+    split.set_state(positions=x1, velocities=v1)
+    split.step(LARGE_WORLD_RESORT_STEPS + 4, forces=forces)
+    fresh = World(x1, radii, masses, v1, **kw)
+    fresh.step(LARGE_WORLD_RESORT_STEPS + 4, forces=forces)
+    np.testing.assert_array_equal(split.positions, fresh.positions)
+    np.testing.assert_array_equal(split.velocities, fresh.velocities)

@@ -2,10 +2,11 @@
 
 One call advances the worlds listed in ``worlds`` by one control period. The physics is the core's
 own symplectic Euler step in its SIMD-across-worlds form (:mod:`..physics.lanes`: a block of worlds
-per vector instruction, bit-identical world by world to ``symplectic_euler_step``), so a world's trajectory does not depend on which env (single, vector, SB3) steps it or on
-how many worlds share the batch. Everything else a step needs (the motor force, the observation,
-the reward terms, the penetration diagnostic) happens in the same call, so Python touches a
-batch once per step, and nothing is allocated.
+per vector instruction, bit-identical world by world to ``symplectic_euler_step``), so a world's
+trajectory does not depend on which env (single, vector, SB3) steps it or on how many worlds share
+the batch. Everything else a step needs (the motor force, the observation, the reward terms, the
+penetration diagnostic) happens in the same call, so Python touches a batch once per step, and
+nothing is allocated.
 
 Ball order in every world: 0 the pusher, 1 the ball, 2.. the obstacles. The last axis is "up";
 the others are horizontal.
@@ -111,8 +112,9 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, envp, st
     """Advance the W worlds ``ids[:W]`` by one control period, one world per SIMD lane.
 
     The lanes step is the core's (:func:`..physics.lanes.lanes_step`), bit-identical to
-    ``symplectic_euler_step`` world by world. ``S`` is this thread's (6, n, D, LANES) scratch: state,
-    accelerations, external force, the motor throttle and the pair-force buffer. Returns the number of blown-up worlds."""
+    ``symplectic_euler_step`` world by world. ``S`` is this thread's (6, n, D, LANES) scratch:
+    state, accelerations, external force, the motor throttle and the pair-force buffer. Returns the
+    number of blown-up worlds."""
     D = len(g)
     n = x.shape[1]
     na = act.shape[1]

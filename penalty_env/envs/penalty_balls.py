@@ -143,18 +143,21 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Physics
 
     Derived from the scene's tolerances by `penalty_env.physics.configure` (the same function a
-    user of the core calls; defaults in brackets), not set by hand:
+    user of the core calls) for the task's contact, the pusher-ball impact (defaults in brackets),
+    not set by hand:
     - the contact stiffness `ks` keeps both a head-on impact at `max_speed` (ks >= m_eff v^2 /
       delta^2) and the motor pressing the pusher into a blocked ball at full force (ks >=
-      max_force / delta) under delta = `penetration_tolerance` x the smallest radius [1481 N/m];
-    - the dashpot gives the heaviest ball-ball impact exactly the chosen `restitution` (normal force
-      clipped at zero: no pull at separation; lighter pairs come out a little more damped); the
-      terrain uses the same spring, with the ball's bounce off it at the same restitution;
+      max_force / delta) under delta = `penetration_tolerance` x the smaller radius [1481 N/m];
+    - the dashpot gives the impact exactly the chosen `restitution` (normal force clipped at
+      zero: no pull at separation); the terrain uses the same spring, with the ball's bounce off
+      it at the same restitution. Obstacles share the spring and dashpot: a pair heavier than
+      pusher and ball rebounds more and overlaps deeper at the same speed, a lighter one less;
     - the substep `dt` is the largest symplectic-Euler step whose worst-case restitution error
       (over where a contact starts within the step), by the error models measured in
       `python -m penalty_env.bench accuracy`, stays within `restitution_accuracy` [30%: 9
-      substeps of 4.4 ms per 0.04 s step], and within the core's stability limit. Tighten it for
-      physics studies (5%: 49 substeps); a looser bounce buys speed (50%: 7 substeps);
+      substeps of 4.4 ms per 0.04 s step], and within the core's stability limit for every
+      contact the scene can form. Tighten it for physics studies (5%: 49 substeps); a looser
+      bounce buys speed (50%: 7 substeps);
     - friction is regularised Coulomb with the largest viscous slope `kf` that brings the
       lightest contact's sliding to rest in one substep without overshoot [75 N s/m].
     A ball pushed to 1 m/s slides about 17 cm before friction stops it.

@@ -41,9 +41,9 @@ PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
     "ball_mass": (0.5, 0.05, 10.0, "ball mass, kg"),
     "obstacle_mass": (1.0, 0.05, 10.0, "obstacle mass, kg"),
     "friction": (0.3, 0.0, 1.5, "Coulomb friction coefficient mu of every contact"),
-    "restitution": (0.3, 0.05, 1.0, "coefficient of restitution of a pusher-ball impact"),
+    "restitution": (0.3, 0.2, 1.0, "coefficient of restitution of a pusher-ball impact"),
     "penetration_tolerance": (0.1, 0.01, 0.5, "overlap / radius of a pusher-ball impact at max_speed"),
-    "restitution_accuracy": (0.3, 0.05, 0.5, "largest relative error of a ball-ball restitution (worst case); sets the substep"),
+    "restitution_accuracy": (0.3, 0.05, 0.5, "largest relative error of the pusher-ball restitution (worst case); sets the substep"),
     "max_speed": (1.0, 0.1, 5.0, "pusher motor's no-load speed, m/s"),
     "max_force": (20.0, 0.5, 500.0, "pusher motor's stall force, N"),
     "goal_tolerance": (0.1, 0.02, 0.3, "success radius around the goal, m"),
@@ -152,14 +152,16 @@ class PenaltyBallsScene:
         self.control_period = p["control_period"]
         self.goal_tolerance = p["goal_tolerance"]
 
-        # --- contact model and substep from the scene's tolerances (physics.configure): ks keeps a
-        # head-on impact at the motor's top speed (ks >= m_eff v^2 / delta^2) and the motor pressing
-        # the pusher into a blocked ball at full force (ks >= F / delta) under delta; kd gives the
-        # heaviest ball-ball contact the target restitution exactly (no-tension closed form); dt is
-        # the cheapest symplectic-Euler step whose worst-case restitution error, by the measured
-        # error models, stays within restitution_accuracy
+        # --- contact model and substep from the task's contact, the pusher-ball impact, by
+        # physics.configure: ks keeps a head-on impact at the motor's top speed (ks >= m_eff v^2 /
+        # delta^2) and the motor pressing the pusher into a blocked ball at full force (ks >= F /
+        # delta) under delta; kd gives the impact the target restitution exactly (no-tension closed
+        # form); dt is the cheapest symplectic-Euler step whose worst-case restitution error, by the
+        # measured error models, stays within restitution_accuracy. Obstacles share the spring and
+        # dashpot (one ks, kd per scene): a heavier pair rebounds more, a lighter one less, and the
+        # stability limit below covers every pair.
         self.config = configure(
-            self.masses, self.radii, max_impact_speed=p["max_speed"], penetration=p["penetration_tolerance"],
+            self.masses[:2], self.radii[:2], max_impact_speed=p["max_speed"], penetration=p["penetration_tolerance"],
             restitution=p["restitution"], accuracy=p["restitution_accuracy"], damping="no_tension",
             terrain=False, integrators=("symplectic_euler",), events=False, max_dt=self.control_period,
             max_force=p["max_force"],

@@ -749,13 +749,15 @@ def run_large_sorted(integ, nsteps, dt, x, v, ext, grid, sm, friction, g, status
 
     Balls that touch sit in the same or adjacent cells, so with the storage sorted by cell a ball's
     neighbours are a few contiguous runs of memory instead of random reads (measured at 100,000
-    balls: 4.1 M particle-steps/s cell-sorted, 0.72 M shuffled; a simulation that mixes drifts from
-    the one toward the other). ``sort`` (:class:`LargeSort`) holds the sorted copy of the state, the
-    per-ball parameters in the same order (``sm``, a Model with its own radii / inv_mass arrays), the permutation ``perm[slot] = ball``
-    and a step counter: every ``sort.every`` steps (counted over the world's life, so the result
-    does not depend on how the steps are split into calls) the storage is re-sorted by the grid's
-    cell order. The user's arrays ``x``, ``v`` (ball order) are gathered on entry and scattered
-    back on exit. Each ball gathers its forces in the grid's fixed order: thread-count independent.
+    balls given in random order: 1.7 M particle-steps/s without the sort, 5.1 to 5.7 M with it; a
+    simulation that mixes its balls would drift from the one toward the other). ``sort``
+    (:class:`LargeSort`) holds the sorted copy of the state, the per-ball parameters in the same
+    order (``sm``, a Model with its own radii / inv_mass arrays), the permutation ``perm[slot] =
+    ball`` and a step counter: every ``sort.every`` steps (counted over the world's life, so the
+    result does not depend on how the steps are split into calls) the storage is re-sorted by the
+    grid's cell order. The user's arrays ``x``, ``v`` (ball order) are gathered on entry and
+    scattered back on exit. Each ball gathers its forces in the grid's fixed order: thread-count
+    independent.
     """
     D = len(g)
     n = x.shape[1]

@@ -5,8 +5,9 @@ kernels in :mod:`.kernels` test one pair of one world at a time. Here a block of
 is copied into a world-innermost layout ``(n, D, LANES)`` and every pair check, force and update
 runs as a loop over the block's worlds, which LLVM vectorises (AVX2 / AVX-512). The contact test is
 a mask rather than a branch, so each lane computes the same operations in the same order as the
-scalar kernel: results are bit-identical to :func:`.kernels.run_symplectic_euler` (tested), only
-faster.
+scalar kernel: results are bit-identical to :func:`.kernels.run_symplectic_euler` for every world
+that stays finite (tested), only faster. (A world that blows up is reported the same way; the NaN
+may reach other balls of that world by a different route.)
 
 Used by :class:`~penalty_env.physics.World` for all-pairs scenes (few balls per world) with
 symplectic or explicit Euler, and by the environments' fused step.
@@ -71,7 +72,7 @@ def pair_forces(i, j, X, V, A, F, W, model, friction, g):
             fk = fn * nk
             if friction is not None:
                 fk += ft_over_vt * ((V[j, k, w] - V[i, k, w]) - vn * nk)
-            F[k, w] = fk
+            F[k, w] = fk if touch else 0.0  # (not 0 x the normal: NaN must not spread)
     for k in range(D):
         for w in range(W):
             A[i, k, w] += F[k, w]
@@ -90,6 +91,10 @@ def terrain_forces(i, X, V, A, W, model, friction, g):
     for s in range(model.shape_kind.shape[0]):
         sign = 1.0 if model.shape_kind[s] == 0 else -1.0
         R = model.shape_radius[s]
+        # the scalar kernel's early miss test, as a mask: a Sphere is touched only inside R + r, a
+        # Bowl only outside R - r (kept: where R + r rounds down, pen can be ~1e-17 > 0 beyond it)
+        is_sphere = sign > 0.0
+        t_miss = (R + r) * (R + r) if is_sphere else ((R - r) * (R - r) if R > r else -1.0)
         for w in range(W):
             dist2 = 0.0
             for k in range(D):
@@ -98,7 +103,8 @@ def terrain_forces(i, X, V, A, W, model, friction, g):
             dist = np.sqrt(dist2)
             phi = sign * (dist - R)
             pen = r - phi
-            touch = pen > 0.0
+            near = dist2 < t_miss if is_sphere else dist2 > t_miss
+            touch = (pen > 0.0) & near
             inv = sign / dist if dist > 0.0 else 0.0
             e_last = 0.0 if dist > 0.0 else 1.0
             vn = 0.0
@@ -124,7 +130,7 @@ def terrain_forces(i, X, V, A, W, model, friction, g):
                 fk = fn * gk
                 if friction is not None:
                     fk -= ft_over_vt * (V[i, k, w] - vn * gk)
-                A[i, k, w] += fk
+                A[i, k, w] += fk if touch else 0.0
 
 
 @njit(inline="always")

@@ -21,7 +21,8 @@ from . import lanes as _lanes
 from . import theory
 from .shapes import Shape, pack_terrain
 
-__all__ = ["World", "KernelState", "GRID_MIN_BALLS", "LANES_MAX_BALLS", "LANES_MIN_WORLDS", "LARGE_WORLD_MIN_BALLS", "STABILITY_SAFETY"]
+__all__ = ["World", "KernelState", "GRID_MIN_BALLS", "LANES_MAX_BALLS", "LANES_MIN_WORLDS", "LARGE_WORLD_MIN_BALLS", "LARGE_WORLD_RESORT_STEPS",
+           "STABILITY_SAFETY"]
 
 # ``broadphase="auto"`` uses the grid from this many balls per world (measured crossover:
 # ``python -m penalty_env.bench core``, section c).
@@ -314,7 +315,7 @@ class World:
             self._grid = None  # all pairs: the kernels compile without the grid code
         # one large world keeps a copy of its state sorted by grid cell (memory locality)
         self._sort = None
-        if self._large and B == 1:
+        if self._large and B == 1 and not self.events:
             # the Model with radii / inv_mass in storage order (its own arrays, permuted with the balls)
             self._sort_model = self._model._replace(radii=self.radii.copy(), inv_mass=1.0 / self.masses)
             self._sort = K.LargeSort(
@@ -441,6 +442,16 @@ class World:
                 raise ValueError(f"{name} must have shape {target if self._batched or worlds is not None else target[1:]}, got {np.shape(value)}")
             dest[idx] = arr
         self._a0_valid[idx] = False
+        self._reset_sort()
+
+    def _reset_sort(self) -> None:
+        """A large world's storage order is history: after new state, start it afresh, so the
+        world steps exactly as a new World made from that state would."""
+        if self._sort is not None:
+            self._sort.perm[:] = np.arange(self.n_balls)
+            self._sort.counter[0] = 0
+            self._sort_model.radii[:] = self.radii
+            self._sort_model.inv_mass[:] = 1.0 / self.masses
 
     def kernel_state(self) -> KernelState:
         """The World's own buffers and model as the Numba kernels take them, for code that fuses
