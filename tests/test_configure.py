@@ -157,3 +157,14 @@ def test_configuration_for_a_tight_tolerance_picks_event_located_rk4():
 ])
 def test_configuration_meets_tolerances_at_near_least_cost(restitution, accuracy, damping):
     _check(restitution, accuracy, damping)
+
+
+def test_damping_beyond_the_measured_models_is_refused_not_guessed():
+    # the error models stop at the largest measured zeta: a contact damped beyond it would be
+    # predicted with the last model, which under-predicts (errors grow faster than linearly)
+    z_max = max(float(k.split("|")[4]) for k in CF.ERROR_MODELS)
+    e_edge = CF.restitution_for_zeta(z_max, "no_tension")
+    CF.configure([1.0, 1.0], [0.1, 0.1], 1.0, restitution=e_edge * 1.01, accuracy=0.3, damping="no_tension")
+    with pytest.raises(ValueError, match="beyond the measured error models"):
+        CF.configure([1.0, 1.0], [0.1, 0.1], 1.0, restitution=e_edge * 0.97, accuracy=0.3, damping="no_tension")
+    assert math.isinf(CF.predicted_error("symplectic_euler", False, "linear", z_max * 1.05, 64))

@@ -41,7 +41,7 @@ PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
     "ball_mass": (0.5, 0.05, 10.0, "ball mass, kg"),
     "obstacle_mass": (1.0, 0.05, 10.0, "obstacle mass, kg"),
     "friction": (0.3, 0.0, 1.5, "Coulomb friction coefficient mu of every contact"),
-    "restitution": (0.3, 0.2, 1.0, "coefficient of restitution of a pusher-ball impact"),
+    "restitution": (0.3, 0.22, 1.0, "coefficient of restitution of a pusher-ball impact"),
     "penetration_tolerance": (0.1, 0.01, 0.5, "overlap / radius of a pusher-ball impact at max_speed"),
     "restitution_accuracy": (0.3, 0.05, 0.5, "largest relative error of the pusher-ball restitution (worst case); sets the substep"),
     "max_speed": (1.0, 0.1, 5.0, "pusher motor's no-load speed, m/s"),

@@ -407,6 +407,8 @@ def _models_at(integrator: str, events: bool, damping: str, metric: str, zeta: f
                     if k.startswith(f"{integrator}|{'events' if events else 'plain'}|{damping}|{metric}|")})
     if not zetas:
         return []
+    if zeta > zetas[-1] * (1.0 + 1e-9):
+        return []  # beyond the measured damping ratios: errors grow faster than linearly, no model
     if zeta >= zetas[-1]:
         chosen = [zetas[-1]]
     else:
@@ -602,6 +604,13 @@ def configure(
             f"the lightest contact would be overdamped (zeta = {max(zetas):.3g} >= 1: it never ends) "
             f"with restitution {restitution} set for the heaviest; ask for a larger restitution or "
             f"closer masses")
+    zeta_models = max(float(k.split("|")[4]) for k in ERROR_MODELS)
+    if max(zetas) > zeta_models * (1.0 + 1e-9):
+        e_min = restitution_for_zeta(zeta_models, damping)
+        raise ValueError(
+            f"the most damped contact would have zeta = {max(zetas):.3g}, beyond the measured error models "
+            f"(zeta <= {zeta_models:g}, restitution >= {e_min:.3g} with {damping} damping); ask for a larger "
+            f"restitution or closer masses")
     t_cs = [theory.contact_time(k, c, me) for k, c, me in contacts]
     t_c_min = min(t_cs)
 
