@@ -20,10 +20,6 @@ from .._jit import njit
 from ..physics import kernels as K
 from ..physics import lanes as L
 
-# ``phys``: the contact model and integrator settings (float64 array)
-P_KS, P_KD, P_KS_TERRAIN, P_KD_TERRAIN, P_NO_TENSION, P_MU, P_KF, P_DT, P_SUBSTEPS, P_G = range(10)
-N_PHYS = P_G + 3  # gravity takes the last D entries (D <= 3)
-
 # ``envp``: the task (float64 array)
 (
     E_MAX_FORCE,
@@ -115,12 +111,15 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, envp, st
     ``symplectic_euler_step`` world by world. ``S`` is this thread's (6, n, D, LANES) scratch:
     state, accelerations, external force, the motor throttle and the pair-force buffer. Returns the
     number of blown-up worlds."""
-    D = len(g)
-    n = x.shape[1]
     na = act.shape[1]
     X, V, A, E, T, F = S[0], S[1], S[2], S[3], S[4], S[5, 0]
     fmax = envp[E_MAX_FORCE]
     inv_vmax = 1.0 / envp[E_MAX_SPEED]
+    L.load_block(ids, 0, W, x, v, X, V)
+    for i in range(E.shape[0]):
+        for k in range(E.shape[1]):
+            for w in range(W):
+                E[i, k, w] = 0.0
     for w in range(W):
         b = ids[w]
         # the throttle a is clipped to [-1, 1] per axis and then to the unit disc, so the
@@ -132,11 +131,6 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, envp, st
         scale = 1.0 / np.sqrt(a2) if a2 > 1.0 else 1.0
         for k in range(na):
             T[0, k, w] = _clip(act[b, k], -1.0, 1.0) * scale
-        for i in range(n):
-            for k in range(D):
-                X[i, k, w] = x[b, i, k]
-                V[i, k, w] = v[b, i, k]
-                E[i, k, w] = 0.0
     for _ in range(substeps):
         # the pusher's motor: F_max (a - v / v_max) (a DC motor's linear force-speed law),
         # re-evaluated every substep
@@ -144,25 +138,15 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, envp, st
             for w in range(W):
                 E[0, k, w] = fmax * (T[0, k, w] - V[0, k, w] * inv_vmax)
         L.lanes_step(True, dt, X, V, A, E, F, W, model, friction, g)
-    bad = 0
-    for w in range(W):
-        b = ids[w]
-        finite = True
-        for i in range(n):
-            for k in range(D):
-                x[b, i, k] = X[i, k, w]
-                v[b, i, k] = V[i, k, w]
-                if not (np.isfinite(X[i, k, w]) and np.isfinite(V[i, k, w])):
-                    finite = False
-        if not finite:
-            status[b] = 1
-            bad += 1
-    return bad
+    return L.store_block(ids, 0, W, x, v, X, V, status, g)
 
 
-@njit(inline="always")
-def _step_worlds(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
-                 shape_radius, phys, envp, goal, prev, obs, out, status, g):
+@njit(nogil=True)
+def step_worlds(worlds, act, stepping, x, v, scratch, ids, model, friction, g, dt, substeps, envp, goal, prev,
+                obs, out, status):
+    """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
+    observe them without stepping). ``x``, ``v``, ``model``, ``friction`` and ``g`` are the
+    World's own (``World.kernel_state``); gravity's length D compiles the D-dimensional code."""
     n_lanes = ids.shape[0]
     na = act.shape[1]
     # refuse a non-finite action before anything moves
@@ -172,13 +156,6 @@ def _step_worlds(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, sha
             for k in range(na):
                 if not np.isfinite(act[b, k]):
                     return -(1 + b)
-    model = K.Model(
-        radii, inv_mass, shape_kind, shape_center, shape_radius, phys[P_KS], phys[P_KD],
-        phys[P_KS_TERRAIN], phys[P_KD_TERRAIN], phys[P_NO_TENSION] != 0.0, 0.0,
-    )
-    friction = (phys[P_MU], phys[P_KF])
-    dt = phys[P_DT]
-    substeps = int(phys[P_SUBSTEPS])
     D = len(g)
     # physics: the stepping worlds, LANES at a time
     bad = 0
@@ -223,26 +200,6 @@ def _step_worlds(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, sha
         prev[b, 0] = dg
         prev[b, 1] = dp
     return bad
-
-
-# One entry point per dimension: gravity becomes a tuple of length D here, so the core's loops
-# unroll for D. ``stepping[b]`` False: world b was just reset; observe it without stepping.
-
-
-@njit(nogil=True)
-def step_worlds_2d(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
-                   shape_radius, phys, envp, goal, prev, obs, out, status):
-    g = (phys[P_G], phys[P_G + 1])
-    return _step_worlds(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
-                        shape_radius, phys, envp, goal, prev, obs, out, status, g)
-
-
-@njit(nogil=True)
-def step_worlds_3d(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
-                   shape_radius, phys, envp, goal, prev, obs, out, status):
-    g = (phys[P_G], phys[P_G + 1], phys[P_G + 2])
-    return _step_worlds(worlds, act, stepping, x, v, scratch, ids, radii, inv_mass, shape_kind, shape_center,
-                        shape_radius, phys, envp, goal, prev, obs, out, status, g)
 
 
 @njit(nogil=True)

@@ -23,7 +23,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ..physics import Bowl, World
-from ..physics.configure import configure, zeta_for_restitution
+from ..physics.configure import configure
 from ..physics.lanes import LANES
 from . import _kernels as KE
 
@@ -172,8 +172,7 @@ class PenaltyBallsScene:
         # restitution. A body on the terrain is heavier than any pair's m_eff, so its contacts are
         # longer than the pair contact configure resolved: at least as many steps per contact.
         self.ks_terrain = self.ks
-        zeta = zeta_for_restitution(p["restitution"], "no_tension")
-        self.kd_terrain = 2.0 * zeta * math.sqrt(self.ks_terrain * p["ball_mass"])
+        self.kd_terrain = 2.0 * self.config.zeta * math.sqrt(self.ks_terrain * p["ball_mass"])
         gravity = (0.0,) * (d - 1) + (-self.gravity,)
         start = self._placeholder_positions()
         common = dict(
@@ -213,16 +212,7 @@ class PenaltyBallsScene:
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (self.action_size,), dtype=np.float32)
 
-        # --- constants the kernel reads
-        self._phys = np.zeros(KE.N_PHYS)
-        self._phys[[KE.P_KS, KE.P_KD, KE.P_KS_TERRAIN, KE.P_KD_TERRAIN]] = (
-            self.ks, self.kd, self.ks_terrain, self.kd_terrain)
-        self._phys[KE.P_NO_TENSION] = 1.0
-        self._phys[KE.P_MU] = self.mu
-        self._phys[KE.P_KF] = self.kf
-        self._phys[KE.P_DT] = self.dt
-        self._phys[KE.P_SUBSTEPS] = self.substeps
-        self._phys[KE.P_G:KE.P_G + d] = gravity
+        # --- constants the kernel reads (the contact model is the World's own: kernel_state())
         self._envp = np.zeros(KE.N_ENVP)
         self._envp[KE.E_MAX_FORCE] = p["max_force"]
         self._envp[KE.E_MAX_SPEED] = p["max_speed"]
@@ -251,7 +241,10 @@ class PenaltyBallsScene:
         self._all = np.arange(B, dtype=np.int64)
         self._chunks = self._split(self._all)
         self._velocity_zeros = np.zeros((B, n, d))
-        self._kernel = KE.step_worlds_3d if d == 3 else KE.step_worlds_2d
+        # one SIMD-lane scratch per thread (the kernel's chunks run concurrently)
+        threads = max(1, _threads())
+        self._lane_scratch = np.zeros((threads, 6, n, d, LANES))
+        self._lane_ids = np.zeros((threads, LANES), dtype=np.int64)
         self._args = self._kernel_args()
 
     # ------------------------------------------------------------------ construction helpers
@@ -278,18 +271,13 @@ class PenaltyBallsScene:
         return np.concatenate(low).astype(np.float32), np.concatenate(high).astype(np.float32)
 
     def _kernel_args(self) -> tuple:
-        """The arrays the kernel steps: the World's own state and model (``World.kernel_state``),
-        so ``World.positions``, ``set_state``, ``energy`` and ``max_penetration`` see what the env
-        steps. The env's kernel steps them with the core's symplectic Euler, a block of worlds per
-        SIMD lane (``physics.lanes``); each thread gets its own lane scratch."""
+        """What the kernel steps: the World's own state, model, friction and gravity
+        (``World.kernel_state``), so ``World.positions``, ``set_state``, ``energy`` and
+        ``max_penetration`` see what the env steps, and the contact model has one source."""
         ks = self.world.kernel_state()
-        m = ks.model
-        x, v = ks.x, ks.v  # (B, n, d), written in place by the kernel and by set_state
-        threads = max(1, _threads())
-        self._lane_scratch = np.zeros((threads, 6, self.n_balls, self.dim, LANES))
-        self._lane_ids = np.zeros((threads, LANES), dtype=np.int64)
-        return (x, v), (m.radii, m.inv_mass, m.shape_kind, m.shape_center, m.shape_radius,
-                        self._phys, self._envp, self.goal, self._prev, self.obs, self.out, self._status)
+        # x, v: (B, n, d), written in place by the kernel and by set_state
+        return (ks.x, ks.v), (ks.model, ks.friction, ks.gravity, self.dt, self.substeps, self._envp, self.goal,
+                              self._prev, self.obs, self.out, self._status)
 
     def _split(self, worlds: np.ndarray) -> list[np.ndarray]:
         work = worlds.size * self.n_balls * self.substeps
@@ -303,7 +291,7 @@ class PenaltyBallsScene:
         self._run(self._all, self._chunks)
 
     def _run(self, worlds: np.ndarray, chunks: Sequence[np.ndarray]) -> None:
-        kernel, act, stepping = self._kernel, self.actions, self._stepping
+        kernel, act, stepping = KE.step_worlds, self.actions, self._stepping
         (x, v), tail = self._args
         scratch, ids = self._lane_scratch, self._lane_ids
         if len(chunks) == 1:

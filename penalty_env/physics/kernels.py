@@ -700,38 +700,6 @@ def run_implicit_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, frictio
 
 
 @njit(parallel=True)
-def run_large(integ, nsteps, dt, x, v, work, ext, grid, model, friction, g, status):
-    """Symplectic or explicit Euler for worlds too large to run one per thread: each step builds
-    the grid, then gathers every ball's force in parallel (each ball visits its neighbours in the
-    grid's fixed order: no write conflicts, and no dependence on the thread count)."""
-    D = len(g)
-    n = x.shape[1]
-    a = work[0]
-    for b in range(x.shape[0]):
-        ok = True
-        for _ in range(nsteps):
-            if not build_grid(b, x, grid, model, g):
-                ok = False
-                break
-            for i in prange(n):
-                for k in range(D):
-                    a[b, i, k] = 0.0
-                grid_neighbours(FORCE, b, i, False, x, v, a, 0.0, grid, model, friction, g)
-                terrain_contact(FORCE, b, i, x, v, a, 0.0, model, friction, g)
-            for i in prange(n):
-                im = model.inv_mass[i]
-                for k in range(D):
-                    ak = (a[b, i, k] + (ext[b, i, k] if ext is not None else 0.0)) * im + g[k]
-                    if integ == SYMPLECTIC_EULER:
-                        v[b, i, k] += dt * ak
-                        x[b, i, k] += dt * v[b, i, k]
-                    else:
-                        x[b, i, k] += dt * v[b, i, k]
-                        v[b, i, k] += dt * ak
-        status[b] = _final_status(b, ok, x, v, g)
-
-
-@njit(parallel=True)
 def _permute_rows(src, order, tmp):
     """src[0, i] = src[0, order[i]] for every row i (through tmp, (n, D))."""
     n = order.shape[0]
@@ -745,7 +713,11 @@ def _permute_rows(src, order, tmp):
 
 @njit(parallel=True)
 def run_large_sorted(integ, nsteps, dt, x, v, ext, grid, sm, friction, g, status, sort):
-    """:func:`run_large` for one world whose balls are kept in grid-cell order in memory.
+    """Symplectic or explicit Euler for a world too large to run one per thread, its balls kept in
+    grid-cell order in memory. Each step builds the grid, then gathers every ball's force in
+    parallel (each ball visits its neighbours in the grid's fixed order: no write conflicts, and no
+    dependence on the thread count). ``x``, ``v``, ``ext``, ``status`` are the world's own
+    ``(1, n, D)`` / ``(1,)`` slices.
 
     Balls that touch sit in the same or adjacent cells, so with the storage sorted by cell a ball's
     neighbours are a few contiguous runs of memory instead of random reads (measured at 100,000
@@ -756,8 +728,7 @@ def run_large_sorted(integ, nsteps, dt, x, v, ext, grid, sm, friction, g, status
     ball`` and a step counter: every ``sort.every`` steps (counted over the world's life, so the
     result does not depend on how the steps are split into calls) the storage is re-sorted by the
     grid's cell order. The user's arrays ``x``, ``v`` (ball order) are gathered on entry and
-    scattered back on exit. Each ball gathers its forces in the grid's fixed order: thread-count
-    independent.
+    scattered back on exit.
     """
     D = len(g)
     n = x.shape[1]

@@ -167,31 +167,53 @@ def lanes_step(symplectic, dt, X, V, A, E, F, W, model, friction, g):
                     V[i, k, w] += dt * ak
 
 
+@njit(inline="always")
+def _world(ids, c0, w):
+    """The world in lane w: ``c0 + w`` for a contiguous block, ``ids[w]`` for a listed one."""
+    return c0 + w if ids is None else ids[w]
+
+
+@njit(inline="always")
+def load_block(ids, c0, W, x, v, X, V):
+    """Copy the block's W worlds from (B, n, D) state into the lanes layout (n, D, LANES)."""
+    for i in range(x.shape[1]):
+        for k in range(x.shape[2]):
+            for w in range(W):
+                b = _world(ids, c0, w)
+                X[i, k, w] = x[b, i, k]
+                V[i, k, w] = v[b, i, k]
+
+
+@njit(inline="always")
+def store_block(ids, c0, W, x, v, X, V, status, g):
+    """Copy the block back to (B, n, D) state and set each world's status; returns how many blew up."""
+    for i in range(x.shape[1]):
+        for k in range(x.shape[2]):
+            for w in range(W):
+                b = _world(ids, c0, w)
+                x[b, i, k] = X[i, k, w]
+                v[b, i, k] = V[i, k, w]
+    bad = 0
+    for w in range(W):
+        b = _world(ids, c0, w)
+        status[b] = K._final_status(b, True, x, v, g)
+        bad += status[b] != K.STATUS_OK
+    return bad
+
+
 @njit(nogil=True)
 def run_lanes(symplectic, b0, b1, nsteps, dt, x, v, scratch, ext, model, friction, g, status):
     """Worlds b0..b1-1 of (B, n, D) state, LANES at a time; ``scratch`` is (5, n, D, LANES)."""
-    D = len(g)
-    n = x.shape[1]
     X, V, A, E = scratch[0], scratch[1], scratch[2], scratch[3]
     F = scratch[4, 0]
     for c0 in range(b0, b1, LANES):
         W = min(LANES, b1 - c0)
-        for i in range(n):
-            for k in range(D):
-                for w in range(W):
-                    X[i, k, w] = x[c0 + w, i, k]
-                    V[i, k, w] = v[c0 + w, i, k]
-                    if ext is not None:
-                        E[i, k, w] = ext[c0 + w, i, k]
+        load_block(None, c0, W, x, v, X, V)
+        if ext is not None:
+            load_block(None, c0, W, ext, ext, E, E)
         for _ in range(nsteps):
             if ext is not None:
                 lanes_step(symplectic, dt, X, V, A, E, F, W, model, friction, g)
             else:
                 lanes_step(symplectic, dt, X, V, A, None, F, W, model, friction, g)
-        for i in range(n):
-            for k in range(D):
-                for w in range(W):
-                    x[c0 + w, i, k] = X[i, k, w]
-                    v[c0 + w, i, k] = V[i, k, w]
-        for w in range(W):
-            status[c0 + w] = K._final_status(c0 + w, True, x, v, g)
+        store_block(None, c0, W, x, v, X, V, status, g)

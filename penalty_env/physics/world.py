@@ -30,8 +30,8 @@ GRID_MIN_BALLS = 64
 # A world this large is stepped with its force loop parallel over balls (symplectic / explicit
 # Euler) instead of one world per thread.
 LARGE_WORLD_MIN_BALLS = 4096
-# ... and, when it is the only world, keeps its balls in grid-cell order in memory, re-sorted every
-# this many steps (a sort costs about one grid build and a copy of the state)
+# ... and keeps its balls in grid-cell order in memory, re-sorted every this many steps (a sort costs
+# about one grid build and a copy of the state)
 LARGE_WORLD_RESORT_STEPS = 25
 # All-pairs worlds of at most this many balls step one world per SIMD lane (``lanes``) with
 # symplectic / explicit Euler (measured crossover: ``python -m penalty_env.bench core``, section d).
@@ -313,17 +313,21 @@ class World:
             )
         else:
             self._grid = None  # all pairs: the kernels compile without the grid code
-        # one large world keeps a copy of its state sorted by grid cell (memory locality)
-        self._sort = None
-        if self._large and B == 1 and not self.events:
-            # the Model with radii / inv_mass in storage order (its own arrays, permuted with the balls)
-            self._sort_model = self._model._replace(radii=self.radii.copy(), inv_mass=1.0 / self.masses)
-            self._sort = K.LargeSort(
-                x=np.zeros((1, n, d)), v=np.zeros((1, n, d)), a=np.zeros((1, n, d)), ext=np.zeros((1, n, d)),
-                perm=np.arange(n, dtype=np.int64), order=np.zeros(n, dtype=np.int64),
-                itmp=np.zeros(n, dtype=np.int64), tmp=np.zeros((n, max(d, 2))), counter=np.zeros(1, dtype=np.int64),
-                every=LARGE_WORLD_RESORT_STEPS,
-            )
+        # each large world keeps a copy of its state sorted by grid cell (memory locality), with
+        # the Model's radii / inv_mass in the same order (its own arrays, permuted with the balls)
+        self._sorts = []
+        if self._large and not self.events:
+            for _ in range(B):
+                self._sorts.append((
+                    K.LargeSort(
+                        x=np.zeros((1, n, d)), v=np.zeros((1, n, d)), a=np.zeros((1, n, d)), ext=np.zeros((1, n, d)),
+                        perm=np.zeros(n, dtype=np.int64), order=np.zeros(n, dtype=np.int64),
+                        itmp=np.zeros(n, dtype=np.int64), tmp=np.zeros((n, max(d, 2))),
+                        counter=np.zeros(1, dtype=np.int64), every=LARGE_WORLD_RESORT_STEPS,
+                    ),
+                    self._model._replace(radii=self.radii.copy(), inv_mass=1.0 / self.masses),
+                ))
+            self._reset_sort()
         self.cg_tol = 1e-10
         self.cg_max_iter = max(50, 4 * n * d)
 
@@ -442,16 +446,19 @@ class World:
                 raise ValueError(f"{name} must have shape {target if self._batched or worlds is not None else target[1:]}, got {np.shape(value)}")
             dest[idx] = arr
         self._a0_valid[idx] = False
-        self._reset_sort()
+        self._reset_sort(idx)
 
-    def _reset_sort(self) -> None:
+    def _reset_sort(self, worlds=slice(None)) -> None:
         """A large world's storage order is history: after new state, start it afresh, so the
         world steps exactly as a new World made from that state would."""
-        if self._sort is not None:
-            self._sort.perm[:] = np.arange(self.n_balls)
-            self._sort.counter[0] = 0
-            self._sort_model.radii[:] = self.radii
-            self._sort_model.inv_mass[:] = 1.0 / self.masses
+        if not self._sorts:
+            return
+        chosen = self._sorts[worlds] if isinstance(worlds, slice) else [self._sorts[b] for b in worlds]
+        for sort, model in chosen:
+            sort.perm[:] = np.arange(self.n_balls)
+            sort.counter[0] = 0
+            model.radii[:] = self.radii
+            model.inv_mass[:] = 1.0 / self.masses
 
     def kernel_state(self) -> KernelState:
         """The World's own buffers and model as the Numba kernels take them, for code that fuses
@@ -485,12 +492,12 @@ class World:
             return
         if self._events is not None:
             _events.run(self, int(n), ext)
-        elif self._sort is not None:
-            K.run_large_sorted(self._integ, int(n), self.dt, self._x, self._v, ext, self._grid, self._sort_model,
-                               self._friction, self.gravity, self._status, self._sort)
         elif self._large:
-            K.run_large(self._integ, int(n), self.dt, self._x, self._v, self._work, ext, self._grid,
-                        self._model, self._friction, self.gravity, self._status)
+            for b, (sort, model) in enumerate(self._sorts):  # the grid's row 0 serves them in turn
+                w = slice(b, b + 1)
+                K.run_large_sorted(self._integ, int(n), self.dt, self._x[w], self._v[w],
+                                   None if ext is None else ext[w], self._grid, model, self._friction,
+                                   self.gravity, self._status[w], sort)
         else:
             self._run_worlds(int(n), ext)
         self._check_status()
@@ -500,14 +507,6 @@ class World:
         ``runners``/``extra``: another driver table and the arguments it takes before ``status``
         (event location uses this)."""
         integ = self._integ
-        tail = (self._x, self._v, self._work)
-        common = (self._grid, self._model, self._friction, self.gravity)
-        if integ == K.VELOCITY_VERLET:
-            args = (n, self.dt) + tail + (self._a0_valid, ext) + common + extra + (self._status,)
-        elif integ == K.IMPLICIT_EULER:
-            args = (n, self.dt) + tail + (ext,) + common + (self.cg_tol, self.cg_max_iter) + extra + (self._status,)
-        else:
-            args = (n, self.dt) + tail + (ext,) + common + extra + (self._status,)
         B = self.n_worlds
         threads = _thread_count()
         parts = 1 if threads < 2 or B < 2 or B * self.n_balls * n < PARALLEL_MIN_WORK else min(threads, B)
@@ -523,6 +522,14 @@ class World:
                 for i, (b0, b1) in enumerate(zip(bounds[:-1], bounds[1:]))
             ]
         else:
+            tail = (self._x, self._v, self._work)
+            common = (self._grid, self._model, self._friction, self.gravity)
+            if integ == K.VELOCITY_VERLET:
+                args = (n, self.dt) + tail + (self._a0_valid, ext) + common + extra + (self._status,)
+            elif integ == K.IMPLICIT_EULER:
+                args = (n, self.dt) + tail + (ext,) + common + (self.cg_tol, self.cg_max_iter) + extra + (self._status,)
+            else:
+                args = (n, self.dt) + tail + (ext,) + common + extra + (self._status,)
             fn = (runners or _RUNNERS)[integ]
             bounds = np.linspace(0, B, parts + 1).astype(int)
             calls = [(fn, (int(b0), int(b1)) + args) for b0, b1 in zip(bounds[:-1], bounds[1:])]
