@@ -17,7 +17,6 @@ import pytest
 from penalty_env.bench.accuracy import SPCS, bowl_drop, pair_collision, resting
 from penalty_env.physics import configure as CF
 from penalty_env.physics import theory
-from penalty_env.physics.world import STABILITY_SAFETY
 
 PHASES = 1024
 
@@ -124,7 +123,7 @@ def _check(restitution, accuracy, damping):
         for ev in (False, True):
             for spc in SPCS:
                 dt = cfg.contact_time / spc
-                guard = min(STABILITY_SAFETY * theory.critical_dt(integ, k, c, m)
+                guard = min(theory.guard_dt(integ, k, c, m)
                             for k, c, m in ((cfg.ks, cfg.kd, 0.5), (cfg.ks_terrain, cfg.kd_terrain, 1.0)))
                 cost = CF.config_cost(integ, ev, spc)
                 if dt > guard or cost >= cheapest:

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from penalty_env.physics import Bowl, World
-from penalty_env.physics.world import GRID_MIN_BALLS, LARGE_WORLD_RESORT_STEPS
+from penalty_env.physics.world import GRID_MIN_BALLS, LARGE_WORLD_MIN_BALLS
 
 ALL_INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
 
@@ -185,10 +185,9 @@ def test_large_world_parallel_force_loop_matches_the_serial_all_pairs_world():
 
 
 def test_large_world_storage_order_changes_only_round_off():
-    """One large world keeps its balls sorted by grid cell in memory (re-sorted every
-    LARGE_WORLD_RESORT_STEPS steps of its life). The user sees balls in their own order; the
-    physics is the same whatever order they were given in, and splitting the steps into calls
-    changes nothing, bit for bit."""
+    """One large world keeps its balls sorted by grid cell in memory (re-sorted at every rebuild of
+    its neighbour list). The user sees balls in their own order; the physics is the same whatever
+    order they were given in, and splitting the steps into calls changes nothing, bit for bit."""
     rng = np.random.default_rng(7)
     k = 16
     g = np.arange(k) * 0.196
@@ -200,18 +199,19 @@ def test_large_world_storage_order_changes_only_round_off():
     masses = rng.uniform(0.8, 1.2, n)
     kw = dict(ks=1e4, kd=2 * 0.2 * math.sqrt(1e4 * 0.4), dt=0.2 / math.sqrt(1e4 / 0.4), terrain=Bowl((0, 0, 3.0), 3.0),
               broadphase="grid", mu=0.2)
-    steps = 2 * LARGE_WORLD_RESORT_STEPS + 3
+    steps = 53
     forces = rng.normal(0.0, 1.0, x.shape)
     ref = World(x, radii, masses, v, **kw)
-    assert ref._sorts  # the sorted large-world path
+    assert ref._larges  # the sorted large-world path
     ref.step(steps, forces=forces)
+    assert ref._larges[0][0].state[2] > 2  # the list was rebuilt (and the storage re-sorted) on the way
     shuffle = rng.permutation(n)
     mixed = World(x[shuffle], radii[shuffle], masses[shuffle], v[shuffle], **kw)
     mixed.step(steps, forces=forces[shuffle])
     np.testing.assert_allclose(mixed.positions, ref.positions[shuffle], rtol=0, atol=1e-10)
     np.testing.assert_allclose(mixed.velocities, ref.velocities[shuffle], rtol=0, atol=1e-8)
     split = World(x, radii, masses, v, **kw)
-    for chunk in (1, LARGE_WORLD_RESORT_STEPS - 2, 7, steps - LARGE_WORLD_RESORT_STEPS - 6):
+    for chunk in (1, 23, 7, 22):
         split.step(chunk, forces=forces)
     np.testing.assert_array_equal(split.positions, ref.positions)
     np.testing.assert_array_equal(split.velocities, ref.velocities)
@@ -219,8 +219,76 @@ def test_large_world_storage_order_changes_only_round_off():
     # new state: the world steps exactly as a new World made from that state
     x1, v1 = ref.positions.copy(), ref.velocities.copy()
     split.set_state(positions=x1, velocities=v1)
-    split.step(LARGE_WORLD_RESORT_STEPS + 4, forces=forces)
+    split.step(29, forces=forces)
     fresh = World(x1, radii, masses, v1, **kw)
-    fresh.step(LARGE_WORLD_RESORT_STEPS + 4, forces=forces)
+    fresh.step(29, forces=forces)
     np.testing.assert_array_equal(split.positions, fresh.positions)
     np.testing.assert_array_equal(split.velocities, fresh.velocities)
+
+
+def _pile(n, d, seed, radii=None):
+    """n balls settled loosely in a bowl (a few hundred steps), their state and World arguments."""
+    rng = np.random.default_rng(seed)
+    r = 0.05 if radii is None else radii
+    radii = np.full(n, r) if np.isscalar(r) else np.asarray(r)
+    side = math.ceil(n ** (1 / d))
+    cell = 2.05 * radii.max()
+    pts = np.array(np.meshgrid(*[np.arange(side)] * d, indexing="ij")).reshape(d, -1).T[:n] * cell
+    pts = pts - pts.mean(0) + rng.normal(0, 0.002, pts.shape)
+    pts[:, -1] += 0.3 + radii.max()
+    masses = rng.uniform(0.8, 1.2, n)
+    bowl = Bowl((0.0,) * (d - 1) + (1.0,), 1.0)
+    return pts, radii, masses, bowl
+
+
+@pytest.mark.parametrize("d,mu,damping", [(2, 0.0, "linear"), (3, 0.0, "no_tension"), (3, 0.3, "linear")])
+def test_neighbour_list_world_matches_all_pairs_while_balls_escape_and_lists_rebuild(d, mu, damping):
+    """From LARGE_WORLD_MIN_BALLS balls a grid world steps through a Verlet neighbour list. Balls
+    that move half the skin "escape" (their contacts are searched each step) and, once too many
+    have, the list is rebuilt. A pile stirred by one fast ball shot through it exercises all of it:
+    the trajectories equal the all-pairs world's to round-off."""
+    n = LARGE_WORLD_MIN_BALLS + 72
+    x, radii, masses, bowl = _pile(n, d, seed=d)
+    kw = _kwargs(masses, zeta=0.3)
+    rng = np.random.default_rng(11)
+    v = rng.normal(0.0, 0.05, x.shape)
+    v[0] = 0.0
+    v[0, 0] = 3.0  # a fast ball through the pile
+    worlds = {bp: World(x, radii, masses, v, terrain=bowl, mu=mu, damping=damping, broadphase=bp, **kw)
+              for bp in ("all_pairs", "grid")}
+    g, a = worlds["grid"], worlds["all_pairs"]
+    assert g._larges, "the neighbour-list path"
+    escaped, contacts = 0, 0
+    for _ in range(15):  # (chaos amplifies round-off about 10x per 100 steps here)
+        for w in worlds.values():
+            w.step(20)
+        escaped = max(escaped, g._larges[0][0].state[3])
+        contacts += g.max_penetration() > 0.0
+        np.testing.assert_allclose(g.positions, a.positions, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(g.velocities, a.velocities, rtol=0, atol=1e-8)
+    assert contacts == 15
+    assert escaped > 0, "some balls must have escaped their list"
+    assert g._larges[0][0].state[2] > 1, "the list must have been rebuilt"
+
+
+def test_a_ball_with_more_neighbours_than_the_list_holds_grows_the_list():
+    """A big ball pressed among many small ones has more neighbours than the list's first
+    capacity: the world grows the list and carries on, with the all-pairs world's physics."""
+    n = LARGE_WORLD_MIN_BALLS + 40
+    rng = np.random.default_rng(3)
+    radii = np.full(n, 0.04)
+    radii[0] = 0.2
+    u = rng.normal(size=(n - 1, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    x = np.vstack([[0.0, 0.0, 0.6], [0.0, 0.0, 0.6] + u * rng.uniform(0.2, 0.45, (n - 1, 1))])
+    masses = np.ones(n)
+    kw = _kwargs(masses, zeta=0.3)
+    bowl = Bowl((0.0, 0.0, 1.0), 1.0)
+    worlds = {bp: World(x, radii, masses, terrain=bowl, broadphase=bp, **kw) for bp in ("all_pairs", "grid")}
+    g = worlds["grid"]
+    first = g._larges[0][0].nbr.shape[1]
+    for w in worlds.values():
+        w.step(50)
+    assert g._larges[0][0].state[1] > first  # the big ball's neighbours did not fit at first
+    assert g._larges[0][0].nbr.shape[1] > g._larges[0][0].state[1]
+    np.testing.assert_allclose(g.positions, worlds["all_pairs"].positions, rtol=0, atol=1e-10)

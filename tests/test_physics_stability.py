@@ -132,3 +132,41 @@ def test_implicit_euler_stays_bounded_at_omega_dt_100(oscillator):
     assert E[0] == pytest.approx(1.0 / (1.0 + h * h), rel=1e-4)
     assert np.max(E) <= 1.0 / (1.0 + h * h) * (1 + 1e-4)
     assert osc.overlap() == pytest.approx(osc.rest_overlap, rel=1e-6)
+
+
+def _caged_ball(dt_factor, zeta=0.215, steps=600):
+    """One ball (m = 1) pressed by 12 face-centred cubic neighbours 1e8 times heavier (they stay put):
+    sum_j ks n_j n_j^T = 4 ks, so the ball is a linear oscillator at 2 omega with twice the damping
+    ratio, the fastest mode of a dense pile. Returns its displacement amplitude over the last 100
+    steps relative to the initial 1e-5 (inf if it blew up)."""
+    from penalty_env.physics import World
+
+    ks, r = 1e4, 0.5
+    m_eff = 1e8 / (1.0 + 1e8)
+    kd = 2 * zeta * math.sqrt(ks * m_eff)
+    d = 0.999 * 2 * r  # every contact pressed by 0.1% (stays in contact throughout)
+    dirs = np.array([p for p in __import__("itertools").product((-1, 0, 1), repeat=3) if sum(map(abs, p)) == 2], float)
+    x = np.vstack([np.zeros(3), d * dirs / math.sqrt(2)])
+    x[0] = 1e-5 * np.array([0.8, 0.5, 0.33]) / np.linalg.norm([0.8, 0.5, 0.33])
+    limit = theory.guard_dt("symplectic_euler", ks, kd, m_eff)
+    w = World(x, np.full(13, r), np.r_[1.0, np.full(12, 1e8)], gravity=(0.0, 0.0, 0.0), ks=ks, kd=kd,
+              dt=dt_factor(limit, theory.critical_dt("symplectic_euler", ks, kd, m_eff)), allow_unstable=True)
+    amp = []
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(steps):
+            try:
+                w.step(1)
+            except FloatingPointError:
+                return math.inf
+            if k >= steps - 100:
+                amp.append(np.linalg.norm(w.positions[0]))
+    return max(amp) / 1e-5
+
+
+def test_the_guard_keeps_a_dense_pile_mode_stable_where_half_the_critical_dt_did_not():
+    """The guard's dense-pile bound, exactly: the caged ball's mode (2 omega, 2 zeta) decays at 0.95x
+    the guard's dt, grows at 1.05x, and grows at the old limit of half the critical dt."""
+    assert _caged_ball(lambda guard, crit: 0.95 * guard) < 0.5
+    assert _caged_ball(lambda guard, crit: 1.05 * guard) > 10.0
+    assert theory.guard_dt("symplectic_euler", 1e4, 43.0, 1.0) < 0.45 * theory.critical_dt("symplectic_euler", 1e4, 43.0, 1.0)
+    assert _caged_ball(lambda guard, crit: 0.5 * crit) > 10.0

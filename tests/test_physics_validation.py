@@ -104,14 +104,19 @@ def test_shapes_validate_their_arguments():
         Bowl(center=(0.0,), radius=1.0)
 
 
-def test_stability_guard_refuses_dt_above_half_the_critical_dt_and_gives_limit_and_substeps():
+def test_stability_guard_refuses_dt_above_the_dense_pile_limit_and_gives_limit_and_substeps():
     # the stiffest contact: the two lightest balls, m_eff = 1 * 2 / 3; symplectic Euler, kd = 10
     ks, kd = 1e4, 10.0
     m_eff = 2.0 / 3.0
     crit = theory.critical_dt("symplectic_euler", ks, kd, m_eff)
     zeta = kd / (2 * math.sqrt(ks * m_eff))
-    assert crit == pytest.approx(2 * (math.sqrt(1 + zeta**2) - zeta) / math.sqrt(ks / m_eff), rel=1e-12)
-    limit = 0.5 * crit
+    omega = math.sqrt(ks / m_eff)
+    assert crit == pytest.approx(2 * (math.sqrt(1 + zeta**2) - zeta) / omega, rel=1e-12)
+    # half the critical dt, or the dense-pile mode's limit (2 omega, 2 zeta) if smaller: damped, it is
+    pile = 2 * (math.sqrt(1 + 4 * zeta**2) - 2 * zeta) / (2 * omega)
+    assert pile < 0.5 * crit
+    limit = min(0.5 * crit, pile)
+    assert theory.guard_dt("symplectic_euler", ks, kd, m_eff) == pytest.approx(limit, rel=1e-12)
     assert _make(dt=limit).stability_limit() == pytest.approx(limit, rel=1e-12)
     dt = 0.1
     with pytest.raises(ValueError) as info:

@@ -846,13 +846,11 @@ def _auto_choice(zeta, damping, accuracy):
                 continue
             spc = CF.SAFETY * need
             # the stability guard, in steps per contact
-            crit = theory.critical_omega_dt(integ, zeta)
-            from ..physics.world import STABILITY_SAFETY
-
+            crit = theory.guard_omega_dt(integ, zeta)
             if math.isfinite(crit):
                 if crit <= 0:
                     continue
-                spc = max(spc, math.pi / math.sqrt(1 - zeta * zeta) / (STABILITY_SAFETY * crit))
+                spc = max(spc, math.pi / math.sqrt(1 - zeta * zeta) / crit)
             c = CF.config_cost(integ, ev, spc)
             if best is None or c < best[0]:
                 best = (c, integ, ev, spc)

@@ -632,10 +632,8 @@ def configure(
             if not dt > 0.0:
                 continue
             # the World's stability guard must accept it
-            from .world import STABILITY_SAFETY
-
             for k, c, me in contacts:
-                dt = min(dt, STABILITY_SAFETY * theory.critical_dt(integ, k, c, me))
+                dt = min(dt, theory.guard_dt(integ, k, c, me))
             if max_dt is not None:
                 dt = min(dt, float(max_dt))
             if not dt > 0.0:

@@ -21,7 +21,7 @@ from . import lanes as _lanes
 from . import theory
 from .shapes import Shape, pack_terrain
 
-__all__ = ["World", "KernelState", "GRID_MIN_BALLS", "LANES_MAX_BALLS", "LANES_MIN_WORLDS", "LARGE_WORLD_MIN_BALLS", "LARGE_WORLD_RESORT_STEPS",
+__all__ = ["World", "KernelState", "GRID_MIN_BALLS", "LANES_MAX_BALLS", "LANES_MIN_WORLDS", "LARGE_WORLD_MIN_BALLS", "NEIGHBOUR_SKIN",
            "STABILITY_SAFETY"]
 
 # ``broadphase="auto"`` uses the grid from this many balls per world (measured crossover:
@@ -29,10 +29,13 @@ __all__ = ["World", "KernelState", "GRID_MIN_BALLS", "LANES_MAX_BALLS", "LANES_M
 GRID_MIN_BALLS = 64
 # A world this large is stepped with its force loop parallel over balls (symplectic / explicit
 # Euler) instead of one world per thread.
-LARGE_WORLD_MIN_BALLS = 4096
-# ... and keeps its balls in grid-cell order in memory, re-sorted every this many steps (a sort costs
-# about one grid build and a copy of the state)
-LARGE_WORLD_RESORT_STEPS = 25
+LARGE_WORLD_MIN_BALLS = 128
+# ... with a Verlet neighbour list: every pair within r_i + r_j + skin, skin = this fraction of the
+# largest diameter (rebuilt, and the storage re-sorted by grid cell, once a ball has moved skin / 2)
+NEIGHBOUR_SKIN = 0.1
+# ... and up to n / 256 (at least 64, at most this many) balls that have moved skin / 2 since (their
+# contacts are searched each step, escaped pairs pair by pair) before the list is rebuilt
+LARGE_WORLD_MAX_ESCAPES = 256
 # All-pairs worlds of at most this many balls step one world per SIMD lane (``lanes``) with
 # symplectic / explicit Euler (measured crossover: ``python -m penalty_env.bench core``, section d).
 LANES_MAX_BALLS = 24
@@ -40,10 +43,10 @@ LANES_MAX_BALLS = 24
 # fewer run their scalar remainder (measured, 6 balls: 0.44x the scalar kernel at 1 world, 0.79x
 # at 8, 1.16x at 16, 2.3x at 32)
 LANES_MIN_WORLDS = 16
-# The guard allows dt <= STABILITY_SAFETY * (critical dt of the stiffest single contact). A ball
-# in several contacts at once (a stack, a pile) vibrates faster than one contact: up to sqrt(2)x
-# for a chain and about 2x for the checkerboard mode of a dense 3D packing.
-STABILITY_SAFETY = 0.5
+# The guard allows dt <= theory.guard_dt of the stiffest contact: STABILITY_SAFETY x its critical dt,
+# and no more than a dense pile's fastest mode allows (a ball in 12 contacts vibrates at twice the
+# frequency and twice the damping ratio of one contact; see theory.guard_omega_dt).
+STABILITY_SAFETY = theory.GUARD_SAFETY
 
 # Below this many ball-steps per call, threads cost more than they save.
 PARALLEL_MIN_WORK = 20_000
@@ -56,6 +59,18 @@ _RUNNERS = {
     K.IMPLICIT_EULER: K.run_implicit_euler,
 }
 _POOL: ThreadPoolExecutor | None = None
+
+
+def _new_grid(B: int, n: int) -> K.Grid:
+    """Grid buffers for B worlds of n balls (up to 4 n cells; the cells grow if a ball flies off)."""
+    cap = max(4 * n, 64)
+    return K.Grid(
+        start=np.zeros((B, cap + 1), dtype=np.int64),
+        items=np.zeros((B, n), dtype=np.int64),
+        cell=np.zeros((B, n), dtype=np.int64),
+        geom=np.zeros((B, 7)),
+        dims=np.ones((B, 4), dtype=np.int64),
+    )
 
 
 def _thread_count() -> int:
@@ -303,31 +318,22 @@ class World:
         if self._lanes:
             self._lane_scratch = np.zeros((max(1, _thread_count()), 5, n, d, _lanes.LANES))
         if self.use_grid:
-            cap = max(4 * n, 64)
-            self._grid = K.Grid(
-                start=np.zeros((B, cap + 1), dtype=np.int64),
-                items=np.zeros((B, n), dtype=np.int64),
-                cell=np.zeros((B, n), dtype=np.int64),
-                geom=np.zeros((B, 7)),
-                dims=np.ones((B, 4), dtype=np.int64),
-            )
+            self._grid = _new_grid(B, n)
         else:
             self._grid = None  # all pairs: the kernels compile without the grid code
-        # each large world keeps a copy of its state sorted by grid cell (memory locality), with
-        # the Model's radii / inv_mass in the same order (its own arrays, permuted with the balls)
-        self._sorts = []
+        # each large world keeps a copy of its state sorted by grid cell (memory locality) and a
+        # neighbour list, with the Model's radii / inv_mass in the same order (its own arrays,
+        # permuted with the balls) and a grid cell wide enough for the list's reach
+        self._larges = []
         if self._large and not self.events:
+            skin = NEIGHBOUR_SKIN * 2.0 * float(self.radii.max())
             for _ in range(B):
-                self._sorts.append((
-                    K.LargeSort(
-                        x=np.zeros((1, n, d)), v=np.zeros((1, n, d)), a=np.zeros((1, n, d)), ext=np.zeros((1, n, d)),
-                        perm=np.zeros(n, dtype=np.int64), order=np.zeros(n, dtype=np.int64),
-                        itmp=np.zeros(n, dtype=np.int64), tmp=np.zeros((n, max(d, 2))),
-                        counter=np.zeros(1, dtype=np.int64), every=LARGE_WORLD_RESORT_STEPS,
-                    ),
-                    self._model._replace(radii=self.radii.copy(), inv_mass=1.0 / self.masses),
+                self._larges.append((
+                    self._new_large(4 * (d - 1) ** 2 + 5, skin),
+                    self._model._replace(radii=self.radii.copy(), inv_mass=1.0 / self.masses,
+                                         cell_size=self._model.cell_size + skin),
                 ))
-            self._reset_sort()
+            self._reset_large()
         self.cg_tol = 1e-10
         self.cg_max_iter = max(50, 4 * n * d)
 
@@ -355,16 +361,15 @@ class World:
         return out
 
     def stability_limit(self) -> float:
-        """Largest dt the guard accepts: STABILITY_SAFETY x the critical dt of the stiffest contact
-        (PHYSICS.md section 4); inf when the scene can form no contact or the integrator is
+        """Largest dt the guard accepts: ``theory.guard_dt`` of the stiffest contact, STABILITY_SAFETY x
+        its critical dt (PHYSICS.md section 4) or less when damped (a dense pile's fastest mode,
+        twice the frequency and twice the damping ratio, must be stable too); inf when the scene can form no contact or the integrator is
         implicit; 0 for explicit Euler on undamped contacts (unstable at any dt)."""
-        limits = [theory.critical_dt(self.integrator, ks, kd, me) for _, ks, kd, me in self._stiffest_contacts()]
-        return STABILITY_SAFETY * min(limits) if limits else math.inf
+        limits = [theory.guard_dt(self.integrator, ks, kd, me) for _, ks, kd, me in self._stiffest_contacts()]
+        return min(limits) if limits else math.inf
 
     def _stability_message(self) -> str:
-        worst = min(
-            self._stiffest_contacts(), key=lambda c: theory.critical_dt(self.integrator, c[1], c[2], c[3])
-        )
+        worst = min(self._stiffest_contacts(), key=lambda c: theory.guard_dt(self.integrator, c[1], c[2], c[3]))
         label, ks, kd, me = worst
         omega = theory.natural_frequency(ks, me)
         zeta = theory.damping_ratio(ks, kd, me)
@@ -380,8 +385,9 @@ class World:
             )
         substeps = math.ceil(self.dt / self.dt_max)
         return (
-            f"{head}. The guard allows dt <= {self.dt_max:.6g} ({STABILITY_SAFETY} x the critical "
-            f"dt {self.dt_max / STABILITY_SAFETY:.6g}): use {substeps} substeps of "
+            f"{head}. The guard allows dt <= {self.dt_max:.6g} (the contact's critical dt is "
+            f"{theory.critical_dt(self.integrator, ks, kd, me):.6g}; the guard keeps {STABILITY_SAFETY}x of it, "
+            f"less for a damped contact, whose dense-pile mode fails sooner): use {substeps} substeps of "
             f"{self.dt / substeps:.6g} per step of {self.dt:g}, or pass allow_unstable=True."
         )
 
@@ -446,19 +452,47 @@ class World:
                 raise ValueError(f"{name} must have shape {target if self._batched or worlds is not None else target[1:]}, got {np.shape(value)}")
             dest[idx] = arr
         self._a0_valid[idx] = False
-        self._reset_sort(idx)
+        self._reset_large(idx)
 
-    def _reset_sort(self, worlds=slice(None)) -> None:
-        """A large world's storage order is history: after new state, start it afresh, so the
-        world steps exactly as a new World made from that state would."""
-        if not self._sorts:
+    def _new_large(self, cap: int, skin: float, chunks: int = 64) -> K.LargeWorld:
+        n, d = self.n_balls, self.dim
+        return K.LargeWorld(
+            x=np.zeros((1, n, d)), v=np.zeros((1, n, d)), a=np.zeros((1, n, d)), ext=np.zeros((1, n, d)),
+            grid=_new_grid(1, n), perm=np.arange(n), order=np.zeros(n, dtype=np.int64),
+            itmp=np.zeros(n, dtype=np.int64), tmp=np.zeros((n, max(d, 2))), nbr=np.zeros((n, cap), dtype=np.int32),
+            count=np.zeros(n, dtype=np.int32), xref=np.zeros((n, d)), escaped=np.zeros(n, dtype=np.int8),
+            escapes=np.zeros(int(np.clip(n // 256, 64, LARGE_WORLD_MAX_ESCAPES)), dtype=np.int64), moved=np.zeros(min(chunks, n), dtype=np.int64),
+            skin=skin, state=np.zeros(4, dtype=np.int64),
+        )
+
+    def _reset_large(self, worlds=slice(None)) -> None:
+        """A large world's storage order and neighbour list are history: after new state, start
+        afresh, so the world steps exactly as a new World made from that state would."""
+        if not self._larges:
             return
-        chosen = self._sorts[worlds] if isinstance(worlds, slice) else [self._sorts[b] for b in worlds]
-        for sort, model in chosen:
-            sort.perm[:] = np.arange(self.n_balls)
-            sort.counter[0] = 0
+        chosen = self._larges[worlds] if isinstance(worlds, slice) else [self._larges[b] for b in worlds]
+        for lw, model in chosen:
+            lw.perm[:] = np.arange(self.n_balls)
+            lw.state[0] = 0
             model.radii[:] = self.radii
             model.inv_mass[:] = 1.0 / self.masses
+
+    def _step_large(self, n: int, ext) -> None:
+        for b, (lw, model) in enumerate(self._larges):
+            w = slice(b, b + 1)
+            done = 0
+            while done < n:
+                done += K.run_large(self._integ, n - done, self.dt, self._x[w], self._v[w],
+                                    None if ext is None else ext[w], model, self._friction, self.gravity,
+                                    self._status[w], lw)
+                if self._status[b] != K.STATUS_OK:
+                    break
+                if done < n:  # a ball has more neighbours than the list holds: grow it, go on
+                    grown = self._new_large(int(lw.state[1]) + 9, lw.skin)
+                    for field in ("perm", "state"):
+                        getattr(grown, field)[:] = getattr(lw, field)
+                    lw = grown
+                    self._larges[b] = (lw, model)
 
     def kernel_state(self) -> KernelState:
         """The World's own buffers and model as the Numba kernels take them, for code that fuses
@@ -493,11 +527,7 @@ class World:
         if self._events is not None:
             _events.run(self, int(n), ext)
         elif self._large:
-            for b, (sort, model) in enumerate(self._sorts):  # the grid's row 0 serves them in turn
-                w = slice(b, b + 1)
-                K.run_large_sorted(self._integ, int(n), self.dt, self._x[w], self._v[w],
-                                   None if ext is None else ext[w], self._grid, model, self._friction,
-                                   self.gravity, self._status[w], sort)
+            self._step_large(int(n), ext)
         else:
             self._run_worlds(int(n), ext)
         self._check_status()
