@@ -213,13 +213,14 @@ def main(argv=None) -> None:
             el = time.perf_counter() - t
             if timed:
                 builds = (w._larges[0][0].state[2] - builds) if w._larges else steps
-                rates.append((n * steps / el, steps / max(builds, 1)))
+                listed = float(w._larges[0][0].count.mean()) if w._larges else float("nan")
+                rates.append((n * steps / el, steps / max(builds, 1), listed))
         per_particle[n] = (1e9 / rates[0][0], 1e9 / rates[1][0])
         mode = "neighbour list, parallel over balls" if w._larges else "one world per thread"
-        for label, (r, every) in zip(("slump", "settled"), rates):
+        for label, (r, every, listed) in zip(("slump", "settled"), rates):
             print(f"    {n:>7,} balls {label:>7}: {r / 1e6:6.1f} M particle-substeps/s, {1e9 / r:6.1f} ns per "
-                  f"particle-step, list rebuilt every {every:5.1f} steps, {r / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x "
-                  f"LAMMPS's 20.6 M/s ({mode})")
+                  f"particle-step, list rebuilt every {every:5.1f} steps, {listed:4.1f} listed neighbours per "
+                  f"ball, {r / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's 20.6 M/s ({mode})")
     ns = sorted(per_particle)
     for k, label in enumerate(("slump", "settled")):
         print(f"    time per particle, {label}, largest / smallest world: "

@@ -367,18 +367,12 @@ def _grid_pass(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev, best, count):
             d2 += dx * dx
         disp2 = max(disp2, d2)
     K.build_grid(b, x1, grid, _CellSize(model.cell_size + 2.0 * np.sqrt(disp2)), g)
-    nx = grid.dims[b, 0]
-    ny = grid.dims[b, 1]
-    nz = grid.dims[b, 2]
     for i in range(n):
-        c = grid.cell[b, i]
-        cx = c % nx
-        cy = (c // nx) % ny
-        cz = c // (nx * ny)
-        for qz in range(max(cz - 1, 0), min(cz + 2, nz)):
-            for qy in range(max(cy - 1, 0), min(cy + 2, ny)):
+        x0_, x1_, y0, y1, z0, z1, nx, ny = K._neighbour_rows(b, i, x1, grid, D)
+        for qz in range(z0, z1):
+            for qy in range(y0, y1):
                 row = (qz * ny + qy) * nx
-                for idx in range(grid.start[b, row + max(cx - 1, 0)], grid.start[b, row + min(cx + 2, nx)]):
+                for idx in range(grid.start[b, row + x0_], grid.start[b, row + x1_]):
                     j = grid.items[b, idx]
                     if j <= i:
                         continue
