@@ -292,3 +292,23 @@ def test_a_ball_with_more_neighbours_than_the_list_holds_grows_the_list():
     assert g._larges[0][0].state[1] > first  # the big ball's neighbours did not fit at first
     assert g._larges[0][0].nbr.shape[1] > g._larges[0][0].state[1]
     np.testing.assert_allclose(g.positions, worlds["all_pairs"].positions, rtol=0, atol=1e-10)
+
+
+def test_batched_neighbour_list_worlds_are_bit_identical_to_each_world_alone():
+    """Each large world of a batch keeps its own grid, list and storage order."""
+    n = LARGE_WORLD_MIN_BALLS + 8
+    x, radii, masses, bowl = _pile(n, 3, seed=5)
+    kw = _kwargs(masses, zeta=0.3)
+    rng = np.random.default_rng(6)
+    xs = x[None] + rng.normal(0.0, 0.003, (3, n, 3))
+    vs = rng.normal(0.0, 0.2, (3, n, 3))
+    batch = World(xs, radii, masses, vs, terrain=bowl, broadphase="grid", **kw)
+    assert len(batch._larges) == 3
+    singles = [World(xs[b], radii, masses, vs[b], terrain=bowl, broadphase="grid", **kw) for b in range(3)]
+    for chunk in (37, 1, 62):
+        batch.step(chunk)
+        for w in singles:
+            w.step(chunk)
+    for b, w in enumerate(singles):
+        np.testing.assert_array_equal(batch.positions[b], w.positions)
+        np.testing.assert_array_equal(batch.velocities[b], w.velocities)
