@@ -726,10 +726,11 @@ def _permute_rows(src, order, tmp):
 
 @njit(inline="always")
 def _list_neighbours(i, grid, xs, sm, nbr, skin, D):
-    """Write ball i's neighbours within r_i + r_j + skin to ``nbr[i]`` in the grid's order (as many
-    as fit below its last column, which takes the rejects); return how many there are. The storage
-    must be in the grid's cell order (slot = item). Branch-free: every candidate is written and the
-    count advances only for a neighbour."""
+    """Write ball i's neighbours j > i within r_i + r_j + skin to ``nbr[i]`` in the grid's order (as
+    many as fit below its last column, which takes the rejects); return how many there are: each
+    pair is listed once, by its lower slot. The storage must be in the grid's cell order (slot =
+    item), so a listed j lies in i's layer of cells along the last axis or in the next one.
+    Branch-free: every candidate is written and the count advances only for a neighbour."""
     last = nbr.shape[1] - 1
     x0, x1, y0, y1, z0, z1, nx, ny = _neighbour_rows(0, i, xs, grid, D)
     count = 0
@@ -745,7 +746,7 @@ def _list_neighbours(i, grid, xs, sm, nbr, skin, D):
                 d0 = xs[0, j, 0] - p0
                 d1 = xs[0, j, 1] - p1
                 d2 = xs[0, j, 2] - p2 if D == 3 else 0.0
-                near = d0 * d0 + d1 * d1 + d2 * d2 < cut * cut and j != i
+                near = d0 * d0 + d1 * d1 + d2 * d2 < cut * cut and j > i
                 nbr[i, min(count, last)] = j
                 count += 1 if near else 0
     return count
@@ -753,9 +754,9 @@ def _list_neighbours(i, grid, xs, sm, nbr, skin, D):
 
 @njit(parallel=True)
 def _build_list(grid, xs, sm, lw, g):
-    """Every ball's neighbours within r_i + r_j + skin, visited in the grid's fixed order (the list,
-    and so the force sums, do not depend on the thread count). Returns the largest count; a count
-    above the list's capacity leaves the list invalid (the caller grows it and retries)."""
+    """Every pair within r_i + r_j + skin, listed once by its lower slot in the grid's fixed order
+    (the list, and so the force sums, do not depend on the thread count). Returns the largest
+    count; a count at the list's capacity leaves the list invalid (the caller grows it and retries)."""
     D = len(g)
     n = xs.shape[1]
     nbr, cnt, xref = lw.nbr, lw.count, lw.xref
@@ -772,21 +773,22 @@ def _build_list(grid, xs, sm, lw, g):
 
 @njit(inline="always")
 def _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne):
-    """Add to ``a[0, i]`` the pair forces of ball i's neighbour list (skipping escaped balls).
+    """Apply the pair forces of ball i's list (each pair once: added to i, subtracted from j),
+    skipping escaped balls.
 
     Without friction this is :func:`pair_contact`'s FORCE law written for the list: every entry is
-    evaluated without a branch and masked by the contact test, and the force is summed in
-    registers (the contact test is a coin flip in a pile, and a mispredicted branch costs more
-    than the arithmetic it skips: 2x faster, measured). Same law, operations in a different order:
-    it agrees with pair_contact to round-off (``tests/test_physics_broadphase.py``). Coincident
-    centres and friction go through pair_contact itself.
+    evaluated without a branch and masked by the contact test, and i's share is summed in registers
+    (the contact test is a coin flip in a pile, and a mispredicted branch costs more than the
+    arithmetic it skips: 2x faster, measured). Same law, operations in a different order: it agrees
+    with pair_contact to round-off (``tests/test_physics_broadphase.py``). Coincident centres and
+    friction go through pair_contact itself.
     """
     D = len(g)
     if friction is not None:
         for m in range(cnt[i]):
             j = nbr[i, m]
             if ne == 0 or escaped[j] == 0:
-                pair_contact(FORCE, 0, i, j, xs, vs, a, 0.0, False, sm, friction, g)
+                pair_contact(FORCE, 0, i, j, xs, vs, a, 0.0, True, sm, friction, g)
         return
     ks = sm.ks
     kd = sm.kd
@@ -809,7 +811,7 @@ def _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne):
         dist2 = d0 * d0 + d1 * d1 + d2 * d2
         if dist2 == 0.0:
             if ne == 0 or escaped[j] == 0:
-                pair_contact(FORCE, 0, i, j, xs, vs, a, 0.0, False, sm, friction, g)
+                pair_contact(FORCE, 0, i, j, xs, vs, a, 0.0, True, sm, friction, g)
             continue
         dist = np.sqrt(dist2)
         inv = 1.0 / dist
@@ -822,9 +824,16 @@ def _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne):
             fn = min(fn, 0.0)
         touch = dist2 < l0 * l0 and (ne == 0 or escaped[j] == 0)
         fn = fn * inv if touch else 0.0
-        f0 += fn * d0
-        f1 += fn * d1
-        f2 += fn * d2
+        e0 = fn * d0
+        e1 = fn * d1
+        f0 += e0
+        f1 += e1
+        a[0, j, 0] -= e0
+        a[0, j, 1] -= e1
+        if D == 3:
+            e2 = fn * d2
+            f2 += e2
+            a[0, j, 2] -= e2
     a[0, i, 0] += f0
     a[0, i, 1] += f1
     if D == 3:
@@ -833,7 +842,8 @@ def _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne):
 
 @njit(inline="always")
 def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g):
-    """Symplectic / explicit Euler update of storage slots i0..i1-1; marks each slot that is now
+    """Symplectic / explicit Euler update of storage slots i0..i1-1 (leaving their forces zeroed for
+    the next step); marks each slot that is now
     skin / 2 or more from where the list was built. Returns how many it marked, -1 if a position
     is not finite."""
     D = len(g)
@@ -843,6 +853,7 @@ def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g)
         d2 = 0.0
         for k in range(D):
             ak = (a[0, i, k] + (es[0, i, k] if ext is not None else 0.0)) * im + g[k]
+            a[0, i, k] = 0.0  # ready for the next step's forces
             if integ == SYMPLECTIC_EULER:
                 vs[0, i, k] += dt * ak
                 xs[0, i, k] += dt * vs[0, i, k]
@@ -882,16 +893,20 @@ def _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne):
 
 
 @njit(parallel=True)
-def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw):
+def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads):
     """Symplectic or explicit Euler for a world too large to run one per thread. Returns the number
     of steps taken: fewer than ``nsteps`` when the world blew up (``status``) or when a ball has more
     neighbours than the list holds (``lw.state[1]`` says how many; the caller grows it and goes on).
 
-    A Verlet neighbour list, as LAMMPS and HOOMD keep: each ball lists the balls within
-    r_i + r_j + skin, found through a grid whose cells are at least that wide. Until a ball has
-    moved skin / 2 from where it was at the build, no pair outside the list can touch, so a step
-    visits only the list: forces are gathered per ball over its full list (each pair seen from both
-    sides, no write conflicts) in the list's fixed grid order.
+    A Verlet neighbour list, as LAMMPS and HOOMD keep: every pair within r_i + r_j + skin is listed
+    once (by its lower storage slot), found through a grid whose cells are at least that wide.
+    Until a ball has moved skin / 2 from where it was at the build, no pair outside the list can
+    touch, so a step visits only the list, and each pair's force is computed once and applied to
+    both balls (Newton's third law, as LAMMPS's "newton on"; 1.3x faster than gathering every pair
+    from both sides, measured at 100,000 balls). The writes stay apart by slabs: with the storage
+    sorted by cell, one layer of cells along the last axis is a contiguous range of slots, and its
+    listed partners lie in the same layer or the next. So the even layers run in parallel, then the
+    odd ones, each layer serially in storage order.
 
     A ball that has moved skin / 2 "escapes": the list no longer speaks for it, and its contacts are
     found each step through the build's grid (:func:`_escaped_contacts`). In a pile a few fast
@@ -899,11 +914,12 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw):
     Once ``escapes`` is full, the next step re-sorts the storage by grid cell (balls that touch sit
     close in memory) and rebuilds the list.
 
-    Nothing depends on the thread count (fixed visiting orders, the escaped balls in a serial
-    pass), and the rebuilds depend only on the state, so splitting the steps over calls changes
+    Nothing depends on the thread count (what each ball receives, and in which order, is fixed by
+    the layers and the list; the escaped balls go in a serial pass), and the rebuilds depend only on the state, so splitting the steps over calls changes
     nothing. ``x``, ``v``, ``ext``, ``status`` are the world's own ``(1, n, D)`` / ``(1,)`` slices, in
     ball order: gathered into storage order on entry, scattered back on exit. ``sm`` is a Model
-    whose radii / inv_mass arrays are the world's own, permuted with the storage.
+    whose radii / inv_mass arrays are the world's own, permuted with the storage. ``threads``: how
+    many ways to split the slabs (the thread count; the result does not depend on it).
     """
     D = len(g)
     n = x.shape[1]
@@ -911,6 +927,7 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw):
     # stores through ``tuple.field[i] = ...`` inside a parallel loop; reads are fine)
     xs, vs, a, es, grid = lw.x, lw.v, lw.a, lw.ext, lw.grid
     perm, nbr, cnt, moved, xref, escaped, escapes = lw.perm, lw.nbr, lw.count, lw.moved, lw.xref, lw.escaped, lw.escapes
+    start = grid.start[0]
     chunks = moved.shape[0]
     half2 = 0.25 * lw.skin * lw.skin
     for i in prange(n):
@@ -918,6 +935,7 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw):
         for k in range(D):
             xs[0, i, k] = x[0, u, k]
             vs[0, i, k] = v[0, u, k]
+            a[0, i, k] = 0.0
             if ext is not None:
                 es[0, i, k] = ext[0, u, k]
     ok = True
@@ -953,12 +971,23 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw):
                 break  # list too small (its last column takes the rejects): the caller grows it
             lw.state[0] = 1
         ne = lw.state[3]
-        for i in prange(n):
-            for k in range(D):
-                a[0, i, k] = 0.0
-            if ne == 0 or escaped[i] == 0:
-                _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne)
-            terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
+        # each pair once, its force added to both balls: a slab (one layer of cells along the last
+        # axis, a contiguous range of the sorted storage) writes only to itself and the next slab,
+        # so the even slabs run in parallel, then the odd ones. What a ball receives, and in which
+        # order, depends on the slabs, never on the threads.
+        layer = 1
+        for k in range(D - 1):
+            layer *= grid.dims[0, k]
+        slabs = grid.dims[0, D - 1]
+        for parity in range(2):
+            mine = (slabs - parity + 1) // 2
+            for t in prange(threads):
+                for q in range(t, mine, threads):  # round robin: the slabs differ in size
+                    s = parity + 2 * q
+                    for i in range(start[s * layer], start[(s + 1) * layer]):
+                        if ne == 0 or escaped[i] == 0:
+                            _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne)
+                        terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
         if ne > 0:
             _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne)
         for c in prange(chunks):

@@ -484,7 +484,7 @@ class World:
             while done < n:
                 done += K.run_large(self._integ, n - done, self.dt, self._x[w], self._v[w],
                                     None if ext is None else ext[w], model, self._friction, self.gravity,
-                                    self._status[w], lw)
+                                    self._status[w], lw, max(1, _thread_count()))
                 if self._status[b] != K.STATUS_OK:
                     break
                 if done < n:  # a ball has more neighbours than the list holds: grow it, go on
