@@ -219,8 +219,8 @@ def main(argv=None) -> None:
         mode = "neighbour list, parallel over balls" if w._larges else "one world per thread"
         for label, (r, every, listed) in zip(("slump", "settled"), rates):
             print(f"    {n:>7,} balls {label:>7}: {r / 1e6:6.1f} M particle-substeps/s, {1e9 / r:6.1f} ns per "
-                  f"particle-step, list rebuilt every {every:5.1f} steps, {listed:4.1f} listed neighbours per "
-                  f"ball, {r / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's 20.6 M/s ({mode})")
+                  f"particle-step, list rebuilt every {every:5.1f} steps, {listed:4.1f} listed pairs per ball "
+                  f"(each pair once), {r / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's 20.6 M/s ({mode})")
     ns = sorted(per_particle)
     for k, label in enumerate(("slump", "settled")):
         print(f"    time per particle, {label}, largest / smallest world: "

@@ -741,12 +741,14 @@ def _list_neighbours(i, grid, xs, sm, nbr, skin, D):
     for qz in range(z0, z1):
         for qy in range(y0, y1):
             row = (qz * ny + qy) * nx
-            for j in range(grid.start[0, row + x0], grid.start[0, row + x1]):  # storage is in cell order
+            # storage is in cell order: the slots after i are the later cells (rows before i's end
+            # before it, and i's own row resumes after it), so only they are scanned
+            for j in range(max(grid.start[0, row + x0], i + 1), grid.start[0, row + x1]):
                 cut = reach + sm.radii[j]
                 d0 = xs[0, j, 0] - p0
                 d1 = xs[0, j, 1] - p1
                 d2 = xs[0, j, 2] - p2 if D == 3 else 0.0
-                near = d0 * d0 + d1 * d1 + d2 * d2 < cut * cut and j > i
+                near = d0 * d0 + d1 * d1 + d2 * d2 < cut * cut
                 nbr[i, min(count, last)] = j
                 count += 1 if near else 0
     return count
