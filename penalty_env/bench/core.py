@@ -200,21 +200,28 @@ def main(argv=None) -> None:
     sizes = (1_000, 4_000) if quick else (1_000, 10_000, 100_000)
     per_particle = {}
     print(f"(b) one world packed in a bowl (grid): timed over the slump from the lattice (first {SLUMP_S:g} s "
-          f"simulated), then settled (after {SLUMP_S + SETTLE_S:g} s, over {SETTLED_S:g} s)")
+          f"simulated), then settled (after {SLUMP_S + SETTLE_S:g} s, over {SETTLED_S:g} s or 5 M particle-steps; "
+          f"best of 3 up to 10,000 balls)")
     for n in sizes:
-        w = large_world(n)
-        w.step(1)  # compile
-        rates = []
-        for timed, span in ((True, SLUMP_S), (False, SETTLE_S), (True, SETTLED_S)):
-            steps = max(1, int(round(span / w.dt)))
-            builds = w._larges[0][0].state[2] if w._larges else 0
-            t = time.perf_counter()
-            w.step(steps)
-            el = time.perf_counter() - t
-            if timed:
-                builds = (w._larges[0][0].state[2] - builds) if w._larges else steps
-                listed = float(w._larges[0][0].count.mean()) if w._larges else float("nan")
-                rates.append((n * steps / el, steps / max(builds, 1), listed))
+        best = None
+        for _ in range(3 if n <= 10_000 else 1):  # a small world's spans are short: best of three
+            w = large_world(n)
+            w.step(1)  # compile
+            rates = []
+            for timed, span in ((True, SLUMP_S), (False, SETTLE_S), (True, SETTLED_S)):
+                steps = max(1, int(round(span / w.dt)))
+                if timed and span == SETTLED_S:
+                    steps = max(steps, -(-5_000_000 // n))  # at least 5 M particle-steps
+                builds = w._larges[0][0].state[2] if w._larges else 0
+                t = time.perf_counter()
+                w.step(steps)
+                el = time.perf_counter() - t
+                if timed:
+                    builds = (w._larges[0][0].state[2] - builds) if w._larges else steps
+                    listed = float(w._larges[0][0].count.mean()) if w._larges else float("nan")
+                    rates.append((n * steps / el, steps / max(builds, 1), listed))
+            best = rates if best is None else [max(a, b) for a, b in zip(best, rates)]
+        rates = best
         per_particle[n] = (1e9 / rates[0][0], 1e9 / rates[1][0])
         mode = "neighbour list, parallel over balls" if w._larges else "one world per thread"
         for label, (r, every, listed) in zip(("slump", "settled"), rates):
