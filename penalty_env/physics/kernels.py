@@ -904,8 +904,8 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
     once (by its lower storage slot), found through a grid whose cells are at least that wide.
     Until a ball has moved skin / 2 from where it was at the build, no pair outside the list can
     touch, so a step visits only the list, and each pair's force is computed once and applied to
-    both balls (Newton's third law, as LAMMPS's "newton on"; 1.3x faster than gathering every pair
-    from both sides, measured at 100,000 balls). The writes stay apart by slabs: with the storage
+    both balls (Newton's third law, as LAMMPS's "newton on"; measured at 100,000 balls, 1.3x faster
+    than gathering every pair from both sides). The writes stay apart by slabs: with the storage
     sorted by cell, one layer of cells along the last axis is a contiguous range of slots, and its
     listed partners lie in the same layer or the next. So the even layers run in parallel, then the
     odd ones, each layer serially in storage order.
