@@ -312,3 +312,38 @@ def test_batched_neighbour_list_worlds_are_bit_identical_to_each_world_alone():
     for b, w in enumerate(singles):
         np.testing.assert_array_equal(batch.positions[b], w.positions)
         np.testing.assert_array_equal(batch.velocities[b], w.velocities)
+
+
+def test_state_written_through_kernel_state_is_seen_after_invalidate_cache():
+    """Writing positions through ``kernel_state()`` and calling ``invalidate_cache`` restarts a large
+    world's neighbour list: a contact made by the write is felt at the next step."""
+    n = LARGE_WORLD_MIN_BALLS + 8
+    x, radii, masses, bowl = _pile(n, 2, seed=9)
+    kw = _kwargs(masses, zeta=0.3)
+    worlds = {bp: World(x, radii, masses, gravity=(0.0, 0.0), broadphase=bp, **kw) for bp in ("all_pairs", "grid")}
+    assert worlds["grid"]._larges
+    for w in worlds.values():
+        w.step(1)
+        ks = w.kernel_state()
+        ks.x[0, 1] = ks.x[0, 0] + [0.09, 0.0]  # ball 1 now overlaps ball 0 (radii 0.05)
+        w.invalidate_cache()
+        w.step(1)
+    a, g = worlds["all_pairs"], worlds["grid"]
+    assert np.abs(a.velocities[1]).max() > 0.0
+    np.testing.assert_allclose(g.velocities, a.velocities, rtol=0, atol=1e-12)
+
+
+def test_a_huge_finite_displacement_still_advances_every_other_ball():
+    """A ball flung at 1e160 m/s overflows its squared displacement; the rest of the world steps on
+    exactly as the all-pairs world does (the overflow only asks for a rebuild)."""
+    n = LARGE_WORLD_MIN_BALLS + 8
+    x, radii, masses, bowl = _pile(n, 3, seed=4)
+    v = np.zeros_like(x)
+    v[5, 0] = 1e160
+    kw = _kwargs(masses, zeta=0.3)
+    worlds = {bp: World(x, radii, masses, v, gravity=(0.0, 0.0, -9.81), broadphase=bp, **kw)
+              for bp in ("all_pairs", "grid")}
+    for w in worlds.values():
+        w.step(2)
+    keep = np.arange(n) != 5
+    np.testing.assert_allclose(worlds["grid"].positions[keep], worlds["all_pairs"].positions[keep], rtol=0, atol=1e-12)

@@ -846,10 +846,12 @@ def _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne):
 def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g):
     """Symplectic / explicit Euler update of storage slots i0..i1-1 (leaving their forces zeroed for
     the next step); marks each slot that is now
-    skin / 2 or more from where the list was built. Returns how many it marked, -1 if a position
-    is not finite."""
+    skin / 2 or more from where the list was built. Returns how many it marked, or -1 (after
+    updating every slot) if a displacement is not finite: the caller rebuilds, and the rebuild's
+    grid reports a position that is not finite."""
     D = len(g)
     marked = 0
+    blown = False
     for i in range(i0, i1):
         im = sm.inv_mass[i]
         d2 = 0.0
@@ -865,12 +867,11 @@ def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g)
             dk = xs[0, i, k] - xref[i, k]
             d2 += dk * dk
         if not d2 < half2:
-            if not np.isfinite(d2):
-                return -1
+            blown = blown or not np.isfinite(d2)
             if escaped[i] == 0:
                 escaped[i] = 1
                 marked += 1
-    return marked
+    return -1 if blown else marked
 
 
 @njit

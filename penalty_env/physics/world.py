@@ -470,8 +470,8 @@ class World:
         afresh, so the world steps exactly as a new World made from that state would."""
         if not self._larges:
             return
-        chosen = self._larges[worlds] if isinstance(worlds, slice) else [self._larges[b] for b in worlds]
-        for lw, model in chosen:
+        for b in np.atleast_1d(np.arange(self.n_worlds)[worlds]):
+            lw, model = self._larges[b]
             lw.perm[:] = np.arange(self.n_balls)
             lw.state[0] = 0
             model.radii[:] = self.radii
@@ -498,13 +498,16 @@ class World:
         """The World's own buffers and model as the Numba kernels take them, for code that fuses
         its own per-step work with the core's step functions (the environments do). Writing the
         arrays changes the World's state; call ``invalidate_cache`` after writing positions or
-        velocities if the integrator is velocity Verlet."""
+        velocities (velocity Verlet's cached force and a large world's neighbour list are then
+        stale)."""
         return KernelState(self._x, self._v, self._work, self._ext, self._grid, self._model, self._friction,
                            self.gravity)
 
     def invalidate_cache(self, worlds=None) -> None:
-        """Forget velocity Verlet's cached acceleration (after writing state directly)."""
+        """Forget what was derived from the state (velocity Verlet's cached acceleration, a large
+        world's neighbour list and storage order), after writing state directly."""
         self._a0_valid[slice(None) if worlds is None else worlds] = False
+        self._reset_large(slice(None) if worlds is None else worlds)
 
     # ---------------------------------------------------------------- stepping
     def step(self, n: int = 1, forces=None) -> None:
