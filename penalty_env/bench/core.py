@@ -32,26 +32,20 @@ LAMMPS_PARTICLE_STEPS_PER_S = 20.6e6
 SLUMP_S, SETTLE_S, SETTLED_S = 2.0, 4.0, 1.0
 
 
-def packed_bowl(n: int, d: int = 3, radius: float = 0.5, seed: int = 0, spacing: float = 2.02,
-                lattice: str = "close"):
-    """n balls of one radius filling the bottom of a bowl, lowest first, on a jittered lattice:
-    ``"close"`` (face-centred cubic in 3D, hexagonal in 2D, the densest) or ``"cubic"``. Frictionless
-    balls cannot hold either lattice against the bowl's curved floor: the pile slumps and sloshes
-    for a few seconds before it settles."""
+def packed_bowl(n: int, d: int = 3, radius: float = 0.5, seed: int = 0, spacing: float = 2.02):
+    """n balls of one radius filling the bottom of a bowl, lowest first, on a jittered close-packed
+    lattice (face-centred cubic in 3D, hexagonal in 2D). Frictionless balls cannot hold it against
+    the bowl's curved floor: the pile slumps and sloshes for a few seconds before it settles."""
     R = radius * (spacing**d * n / (0.6 * (np.pi if d == 2 else 2.0 * np.pi / 3.0))) ** (1.0 / d) + 2 * radius
     center = np.zeros(d)
     center[-1] = R
     a = spacing * radius  # nearest-neighbour distance
-    if lattice == "cubic":
-        basis, cell = np.zeros((1, d)), np.full(d, a)
-    elif lattice == "close" and d == 3:  # FCC: cube edge a sqrt 2, four balls per cube
+    if d == 3:  # face-centred cubic: cube edge a sqrt 2, four balls per cube
         basis = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]]) * a * np.sqrt(2)
         cell = np.full(3, a * np.sqrt(2))
-    elif lattice == "close":  # hexagonal: rectangle a x a sqrt 3, two balls per rectangle
+    else:  # hexagonal: rectangle a x a sqrt 3, two balls per rectangle
         basis = np.array([[0, 0], [0.5 * a, 0.5 * a * np.sqrt(3)]])
         cell = np.array([a, a * np.sqrt(3)])
-    else:
-        raise ValueError(f"lattice must be 'close' or 'cubic', got {lattice!r}")
     axes = [np.arange(int(np.ceil(2 * R / cell[k])) + 1) * cell[k] - R for k in range(d)]
     corners = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d)
     grid = (corners[:, None, :] + basis[None]).reshape(-1, d) + center

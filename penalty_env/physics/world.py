@@ -361,10 +361,11 @@ class World:
         return out
 
     def stability_limit(self) -> float:
-        """Largest dt the guard accepts: ``theory.guard_dt`` of the stiffest contact, STABILITY_SAFETY x
-        its critical dt (PHYSICS.md section 4) or less when damped (a dense pile's fastest mode,
-        twice the frequency and twice the damping ratio, must be stable too); inf when the scene can form no contact or the integrator is
-        implicit; 0 for explicit Euler on undamped contacts (unstable at any dt)."""
+        """Largest dt the guard accepts: ``theory.guard_dt`` of the stiffest contact, STABILITY_SAFETY
+        x its critical dt (PHYSICS.md section 4) or less when damped (a dense pile's fastest mode,
+        twice the frequency and twice the damping ratio, must be stable too); inf when the scene can
+        form no contact or the integrator is implicit; 0 for explicit Euler on undamped contacts
+        (unstable at any dt)."""
         limits = [theory.guard_dt(self.integrator, ks, kd, me) for _, ks, kd, me in self._stiffest_contacts()]
         return min(limits) if limits else math.inf
 
