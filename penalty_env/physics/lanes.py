@@ -174,25 +174,31 @@ def _world(ids, c0, w):
 
 
 @njit(inline="always")
-def load_block(ids, c0, W, x, v, X, V):
-    """Copy the block's W worlds from (B, n, D) state into the lanes layout (n, D, LANES)."""
+def _copy_block(ids, c0, W, x, v, X, V, load):
+    """Copy the block's W worlds between (B, n, D) state and the lanes layout (n, D, LANES):
+    into the lanes when ``load``, back to the state otherwise."""
     for i in range(x.shape[1]):
         for k in range(x.shape[2]):
             for w in range(W):
                 b = _world(ids, c0, w)
-                X[i, k, w] = x[b, i, k]
-                V[i, k, w] = v[b, i, k]
+                if load:
+                    X[i, k, w] = x[b, i, k]
+                    V[i, k, w] = v[b, i, k]
+                else:
+                    x[b, i, k] = X[i, k, w]
+                    v[b, i, k] = V[i, k, w]
+
+
+@njit(inline="always")
+def load_block(ids, c0, W, x, v, X, V):
+    """Copy the block's W worlds from (B, n, D) state into the lanes layout (n, D, LANES)."""
+    _copy_block(ids, c0, W, x, v, X, V, True)
 
 
 @njit(inline="always")
 def store_block(ids, c0, W, x, v, X, V, status, g):
     """Copy the block back to (B, n, D) state and set each world's status; returns how many blew up."""
-    for i in range(x.shape[1]):
-        for k in range(x.shape[2]):
-            for w in range(W):
-                b = _world(ids, c0, w)
-                x[b, i, k] = X[i, k, w]
-                v[b, i, k] = V[i, k, w]
+    _copy_block(ids, c0, W, x, v, X, V, False)
     bad = 0
     for w in range(W):
         b = _world(ids, c0, w)
