@@ -18,7 +18,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from penalty_env.physics import Bowl, World
+from penalty_env.physics import Bowl, Sphere, World
 from penalty_env.physics.world import GRID_MIN_BALLS, LARGE_WORLD_MIN_BALLS
 
 ALL_INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
@@ -124,7 +124,7 @@ _THREAD_SCRIPT = textwrap.dedent(
     import hashlib, math, sys
     import numpy as np
     import numba
-    from penalty_env.physics import Bowl, World
+    from penalty_env.physics import Bowl, Sphere, World
 
     out = [str(numba.config.NUMBA_NUM_THREADS)]
     rng = np.random.default_rng(0)
@@ -269,6 +269,39 @@ def test_neighbour_list_world_matches_all_pairs_while_balls_escape_and_lists_reb
     assert contacts == 15
     assert escaped > 0, "some balls must have escaped their list"
     assert g._larges[0][0].state[2] > 1, "the list must have been rebuilt"
+
+
+def test_a_ball_listed_far_from_the_terrain_still_bounces_off_it_after_escaping():
+    """A list world tests the terrain only for balls that were within a skin of it at the build
+    (and for escaped balls). A ball shot from the side of a pile, listed far from every shape,
+    escapes on its way and must then bounce off a Sphere obstacle exactly as in the all-pairs
+    world, before any rebuild could have refreshed its flag."""
+    n = LARGE_WORLD_MIN_BALLS + 88
+    x, radii, masses, bowl = _pile(n, 3, seed=7)
+    x = (x - x.mean(0)) * 1.2 + [0.0, 0.0, 0.55]  # apart: no other ball moves (nor escapes)
+    bowl = Bowl((0.0, 0.0, 1.5), 1.5)
+    x[np.argmin(np.linalg.norm(x - [0.0, 0.0, 0.0], axis=1))] = [0.0, 0.0, radii[0] + 0.005]  # near the floor
+    assert np.all(bowl.phi(x) > radii)
+    shot = int(np.argmin(np.linalg.norm(x - [x[:, 0].max(), 0.0, 0.55], axis=1)))
+    v = np.zeros_like(x)
+    v[shot, 0] = 2.0
+    terrain = (bowl, Sphere((0.55, x[shot, 1], x[shot, 2]), 0.1))  # head on
+    kw = _kwargs(masses, zeta=0.3)
+    worlds = {bp: World(x, radii, masses, v, terrain=terrain, gravity=(0.0, 0.0, 0.0), broadphase=bp, **kw)
+              for bp in ("all_pairs", "grid")}
+    g, a = worlds["grid"], worlds["all_pairs"]
+    g.step(1)
+    a.step(1)
+    lw = g._larges[0][0]
+    slot = int(np.flatnonzero(lw.perm == shot)[0])
+    assert lw.near[slot] == 0 and lw.near.any(), "the shot ball is listed clear of the terrain, some others are not"
+    for _ in range(15):
+        for w in worlds.values():
+            w.step(10)
+        np.testing.assert_allclose(g.positions, a.positions, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(g.velocities, a.velocities, rtol=0, atol=1e-8)
+    assert a.velocities[shot, 0] < -0.2, "the shot ball bounced back off the Sphere"
+    assert lw.state[2] == 1, "no rebuild: the escaped path alone found the terrain"
 
 
 def test_a_ball_with_more_neighbours_than_the_list_holds_grows_the_list():

@@ -90,10 +90,11 @@ LargeWorld = namedtuple(
         "tmp",  # (n, max(D, 2)) float scratch
         "nbr",  # (n, cap) int32 storage slots of each ball's listed neighbours, in grid order
         "count",  # (n,) int32 listed neighbours per ball
+        "near",  # (n,) int8: 1 if the ball was within a skin of a terrain shape at the build
         "xref",  # (n, D) positions at the last build
         "escaped",  # (n,) int8: 1 once the slot has moved skin / 2 from xref
         "escapes",  # (max_escapes,) the escaped slots, in the order they escaped
-        "moved",  # (chunks,) per chunk of slots: how many escaped in the last step (-1: not finite)
+        "moved",  # (threads,) per thread: how many slots escaped in the last step (-1: not finite)
         "skin",  # list reach beyond contact
         "state",  # (4,) int64: [list valid, largest count at the last build, builds so far, escaped]
     ],
@@ -754,17 +755,39 @@ def _list_neighbours(i, grid, xs, sm, nbr, skin, D):
     return count
 
 
+@njit(inline="always")
+def _near_terrain(i, xs, sm, reach, D):
+    """1 unless ball i's surface is at least ``reach`` clear of every terrain shape (phi(c_i) - r_i
+    >= reach; a position that is not finite counts as near)."""
+    r = sm.radii[i]
+    for s in range(sm.shape_kind.shape[0]):
+        dist2 = 0.0
+        for k in range(D):
+            dx = xs[0, i, k] - sm.shape_center[s, k]
+            dist2 += dx * dx
+        phi = np.sqrt(dist2) - sm.shape_radius[s]
+        if sm.shape_kind[s] != 0:  # BOWL: R - |x - c|
+            phi = -phi
+        if not phi - r >= reach:
+            return 1
+    return 0
+
+
 @njit(parallel=True)
 def _build_list(grid, xs, sm, lw, g):
     """Every pair within r_i + r_j + skin, listed once by its lower slot in the grid's fixed order
-    (the list, and so the force sums, do not depend on the thread count). Returns the largest
-    count; a count at the list's capacity leaves the list invalid (the caller grows it and retries)."""
+    (the list, and so the force sums, do not depend on the thread count), and which balls are
+    within a skin of the terrain. Returns the largest count; a count at the list's capacity leaves
+    the list invalid (the caller grows it and retries)."""
     D = len(g)
     n = xs.shape[1]
-    nbr, cnt, xref = lw.nbr, lw.count, lw.xref
+    nbr, cnt, near, xref = lw.nbr, lw.count, lw.near, lw.xref
     skin = lw.skin
     for i in prange(n):
         cnt[i] = _list_neighbours(i, grid, xs, sm, nbr, skin, D)
+        # a ball that has not escaped is within skin / 2 of xref, and phi is 1-Lipschitz: a
+        # clearance of a skin at the build means no terrain contact until it escapes
+        near[i] = _near_terrain(i, xs, sm, skin, D)
         for k in range(D):
             xref[i, k] = xs[0, i, k]
     most = 0
@@ -895,6 +918,20 @@ def _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne):
             pair_contact(FORCE, 0, i, escapes[f], xs, vs, a, 0.0, True, sm, friction, g)
 
 
+@njit
+def _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne):
+    """Listed pair forces and terrain contacts of every ball in slab s (serial, storage order). The
+    terrain is tested for the balls listed near it and for the escaped ones (which may have come
+    near it since the build). A function of its own, not inlined: each inlined call site would
+    compile the force law again."""
+    for i in range(start[s * layer], start[(s + 1) * layer]):
+        escaped_i = ne > 0 and escaped[i] != 0
+        if not escaped_i:
+            _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne)
+        if escaped_i or near[i] != 0:
+            terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
+
+
 @njit(parallel=True)
 def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads):
     """Symplectic or explicit Euler for a world too large to run one per thread. Returns the number
@@ -909,29 +946,37 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
     than gathering every pair from both sides). The writes stay apart by slabs: with the storage
     sorted by cell, one layer of cells along the last axis is a contiguous range of slots, and its
     listed partners lie in the same layer or the next. So the even layers run in parallel, then the
-    odd ones, each layer serially in storage order.
+    odd ones, each layer serially in storage order. A layer's forces are complete once it and the
+    layer before it have run, and no later work of the step reads its state: so each odd layer,
+    once its forces are in, advances itself and the (even) layer after it while they are still in
+    cache. The terrain is tested only for the balls that were within a skin of it at the build (a
+    ball that has not escaped has moved less than skin / 2 since) and for the escaped ones.
 
     A ball that has moved skin / 2 "escapes": the list no longer speaks for it, and its contacts are
-    found each step through the build's grid (:func:`_escaped_contacts`). In a pile a few fast
-    balls escape long before the rest move; they no longer force the whole list to be rebuilt.
-    Once ``escapes`` is full, the next step re-sorts the storage by grid cell (balls that touch sit
-    close in memory) and rebuilds the list.
+    found each step through the build's grid (:func:`_escaped_contacts`, before the layers, while
+    every ball is still where the step began). In a pile a few fast balls escape long before the
+    rest move; they no longer force the whole list to be rebuilt. Once ``escapes`` is full, the
+    next step re-sorts the storage by grid cell (balls that touch sit close in memory) and rebuilds
+    the list.
 
     Nothing depends on the thread count (what each ball receives, and in which order, is fixed by
-    the layers and the list; the escaped balls go in a serial pass), and the rebuilds depend only on the state, so splitting the steps over calls changes
-    nothing. ``x``, ``v``, ``ext``, ``status`` are the world's own ``(1, n, D)`` / ``(1,)`` slices, in
-    ball order: gathered into storage order on entry, scattered back on exit. ``sm`` is a Model
+    the layers and the list; the escaped balls go in a serial pass), and the rebuilds depend only
+    on the state, so splitting the steps over calls changes nothing. ``x``, ``v``, ``ext``,
+    ``status`` are the world's own ``(1, n, D)`` / ``(1,)`` slices, in ball order: gathered into
+    storage order on entry, scattered back on exit. ``sm`` is a Model
     whose radii / inv_mass arrays are the world's own, permuted with the storage. ``threads``: how
-    many ways to split the slabs (the thread count; the result does not depend on it).
+    many ways to split the slabs (the thread count, at most ``len(lw.moved)``; the result does not
+    depend on it).
     """
     D = len(g)
     n = x.shape[1]
     # (namedtuple fields are bound to locals before the prange loops: Numba 0.68 silently drops
     # stores through ``tuple.field[i] = ...`` inside a parallel loop; reads are fine)
     xs, vs, a, es, grid = lw.x, lw.v, lw.a, lw.ext, lw.grid
-    perm, nbr, cnt, moved, xref, escaped, escapes = lw.perm, lw.nbr, lw.count, lw.moved, lw.xref, lw.escaped, lw.escapes
+    perm, nbr, cnt, near, moved = lw.perm, lw.nbr, lw.count, lw.near, lw.moved
+    xref, escaped, escapes = lw.xref, lw.escaped, lw.escapes
     start = grid.start[0]
-    chunks = moved.shape[0]
+    threads = max(1, min(threads, moved.shape[0]))
     half2 = 0.25 * lw.skin * lw.skin
     for i in prange(n):
         u = perm[i]
@@ -974,45 +1019,53 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
                 break  # list too small (its last column takes the rejects): the caller grows it
             lw.state[0] = 1
         ne = lw.state[3]
-        # each pair once, its force added to both balls: a slab (one layer of cells along the last
-        # axis, a contiguous range of the sorted storage) writes only to itself and the next slab,
-        # so the even slabs run in parallel, then the odd ones. What a ball receives, and in which
-        # order, depends on the slabs, never on the threads.
+        # the escaped balls' pairs first (serial), then the slabs: each pair once, its force added
+        # to both balls; a slab (one layer of cells along the last axis, a contiguous range of the
+        # sorted storage) writes only to itself and the next slab, so the even slabs run in
+        # parallel, then the odd ones, each advancing itself and the next once its forces are in.
+        # What a ball receives, and in which order, depends on the slabs, never on the threads.
+        if ne > 0:
+            _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne)
         layer = 1
         for k in range(D - 1):
             layer *= grid.dims[0, k]
         slabs = grid.dims[0, D - 1]
-        for parity in range(2):
-            mine = (slabs - parity + 1) // 2
-            for t in prange(threads):
-                for q in range(t, mine, threads):  # round robin: the slabs differ in size
-                    s = parity + 2 * q
-                    for i in range(start[s * layer], start[(s + 1) * layer]):
-                        if ne == 0 or escaped[i] == 0:
-                            _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne)
-                        terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
-        if ne > 0:
-            _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne)
-        for c in prange(chunks):
-            moved[c] = _advance(integ, dt, c * n // chunks, (c + 1) * n // chunks, xs, vs, a, es, ext, sm, xref,
-                                escaped, half2, g)
+        for t in prange(threads):
+            for q in range(t, (slabs + 1) // 2, threads):  # round robin: the slabs differ in size
+                _slab_forces(2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne)
+        for t in prange(threads):
+            marked = 0
+            # (an int64 copy of t: a prange index may be unsigned, and int64 with uint64 unifies to float)
+            q = -1 if t == 0 else np.int64(t)  # thread 0 first advances slab 0: complete after the even pass
+            while q < slabs // 2:
+                s0 = 0
+                s1 = 1
+                if q >= 0:
+                    s0 = 1 + 2 * q
+                    _slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne)
+                    s1 = min(s0 + 2, slabs)  # this slab and the next, contiguous in storage
+                m = _advance(integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, ext, sm, xref, escaped,
+                             half2, g)
+                marked = -1 if (m < 0 or marked < 0) else marked + m
+                q = np.int64(t) if q < 0 else q + threads
+            moved[t] = marked
         taken += 1
-        # collect the newly escaped slots, chunk by chunk (a fixed order); rebuild when they
-        # no longer fit, or at once when a position is not finite
-        for c in range(chunks):
-            if moved[c] < 0:
+        # collect the newly escaped slots in storage order; rebuild when they no longer fit, or
+        # at once when a position is not finite
+        fresh = 0
+        for t in range(threads):
+            if moved[t] < 0:
                 lw.state[0] = 0
-                break
-            if moved[c] == 0:
-                continue
-            for i in range(c * n // chunks, (c + 1) * n // chunks):
+            fresh += moved[t]
+        if lw.state[0] != 0 and fresh > 0:
+            for i in range(n):
                 if escaped[i] == 1:
                     escaped[i] = 2
                     if ne < escapes.shape[0]:
                         escapes[ne] = i
                     ne += 1
-        if ne > escapes.shape[0]:
-            lw.state[0] = 0
+            if ne > escapes.shape[0]:
+                lw.state[0] = 0
         lw.state[3] = ne
     for i in prange(n):
         u = perm[i]
