@@ -461,8 +461,10 @@ class World:
             x=np.zeros((1, n, d)), v=np.zeros((1, n, d)), a=np.zeros((1, n, d)), ext=np.zeros((1, n, d)),
             grid=_new_grid(1, n), perm=np.arange(n), order=np.zeros(n, dtype=np.int64),
             itmp=np.zeros(n, dtype=np.int64), tmp=np.zeros((n, max(d, 2))), nbr=np.zeros((n, cap), dtype=np.int32),
-            count=np.zeros(n, dtype=np.int32), near=np.zeros(n, dtype=np.int8), xref=np.zeros((n, d)), escaped=np.zeros(n, dtype=np.int8),
-            escapes=np.zeros(int(np.clip(n // 256, 64, LARGE_WORLD_MAX_ESCAPES)), dtype=np.int64), moved=np.zeros(max(64, _thread_count()), dtype=np.int64),
+            count=np.zeros(n, dtype=np.int32), near=np.zeros(n, dtype=np.int8), xref=np.zeros((n, d)),
+            escaped=np.zeros(n, dtype=np.int8),
+            escapes=np.zeros(int(np.clip(n // 256, 64, LARGE_WORLD_MAX_ESCAPES)), dtype=np.int64),
+            moved=np.zeros(max(64, _thread_count()), dtype=np.int64),  # one per thread
             skin=skin, state=np.zeros(4, dtype=np.int64),
         )
 
