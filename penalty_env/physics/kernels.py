@@ -182,6 +182,17 @@ def pair_contact(mode, b, i, j, x, v, out, coef, scatter, model, friction, g):
 
 
 @njit(inline="always")
+def _shape_dist2(b, i, x, model, s, D):
+    """The sign of terrain shape s's phi about |x - c| (SPHERE: phi = |x - c| - R, +1; BOWL:
+    phi = R - |x - c|, -1) and ball i's squared distance to the shape's centre."""
+    dist2 = 0.0
+    for k in range(D):
+        dx = x[b, i, k] - model.shape_center[s, k]
+        dist2 += dx * dx
+    return (1.0 if model.shape_kind[s] == 0 else -1.0), dist2
+
+
+@njit(inline="always")
 def terrain_contact(mode, b, i, x, v, out, coef, model, friction, g):
     """Sphere i against every static terrain shape (seed section 2, zero rest length).
 
@@ -193,11 +204,7 @@ def terrain_contact(mode, b, i, x, v, out, coef, model, friction, g):
     r = model.radii[i]
     acc = 0.0
     for s in range(model.shape_kind.shape[0]):
-        sign = 1.0 if model.shape_kind[s] == 0 else -1.0  # SPHERE: |x-c| - R; BOWL: R - |x-c|
-        dist2 = 0.0
-        for k in range(D):
-            dx = x[b, i, k] - model.shape_center[s, k]
-            dist2 += dx * dx
+        sign, dist2 = _shape_dist2(b, i, x, model, s, D)
         # miss test without a square root: a Sphere is touched inside radius R + r, a Bowl
         # outside R - r (NaN compares False and falls through to the exact test)
         R = model.shape_radius[s]
@@ -761,14 +768,8 @@ def _near_terrain(i, xs, sm, reach, D):
     >= reach; a position that is not finite counts as near)."""
     r = sm.radii[i]
     for s in range(sm.shape_kind.shape[0]):
-        dist2 = 0.0
-        for k in range(D):
-            dx = xs[0, i, k] - sm.shape_center[s, k]
-            dist2 += dx * dx
-        phi = np.sqrt(dist2) - sm.shape_radius[s]
-        if sm.shape_kind[s] != 0:  # BOWL: R - |x - c|
-            phi = -phi
-        if not phi - r >= reach:
+        sign, dist2 = _shape_dist2(0, i, xs, sm, s, D)
+        if not sign * (np.sqrt(dist2) - sm.shape_radius[s]) - r >= reach:
             return 1
     return 0
 
@@ -868,10 +869,9 @@ def _listed_pair_forces(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne):
 @njit(inline="always")
 def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g):
     """Symplectic / explicit Euler update of storage slots i0..i1-1 (leaving their forces zeroed for
-    the next step); marks each slot that is now
-    skin / 2 or more from where the list was built. Returns how many it marked, or -1 (after
-    updating every slot) if a displacement is not finite: the caller rebuilds, and the rebuild's
-    grid reports a position that is not finite."""
+    the next step); marks each slot that is now skin / 2 or more from where the list was built.
+    Returns how many it marked, or -1 (after updating every slot) if a displacement is not finite:
+    the caller rebuilds, and the rebuild's grid reports a position that is not finite."""
     D = len(g)
     marked = 0
     blown = False

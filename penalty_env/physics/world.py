@@ -464,7 +464,7 @@ class World:
             count=np.zeros(n, dtype=np.int32), near=np.zeros(n, dtype=np.int8), xref=np.zeros((n, d)),
             escaped=np.zeros(n, dtype=np.int8),
             escapes=np.zeros(int(np.clip(n // 256, 64, LARGE_WORLD_MAX_ESCAPES)), dtype=np.int64),
-            moved=np.zeros(max(64, _thread_count()), dtype=np.int64),  # one per thread
+            moved=np.zeros(max(1, _thread_count()), dtype=np.int64),  # one per thread
             skin=skin, state=np.zeros(4, dtype=np.int64),
         )
 
