@@ -137,6 +137,49 @@ def test_worst_case_at_128_steps_per_contact_holds_on_an_off_grid_8192_phase_swe
         assert dense.worst_tc_error(name) < 0.015
 
 
+STEP_FRACTIONS = (128.0, 128.25, 128.5, 128.75)  # steps per contact: a whole number and between
+
+
+@pytest.mark.parametrize("zeta", [0.1, 0.3])
+def test_velocity_verlet_errs_by_at_most_one_step_of_dashpot_impulse_at_any_step_fraction(collisions, zeta):
+    """Why Verlet's worst case at exactly 128 steps per contact is 2 zeta omega0 dt.
+
+    Verlet's two half kicks weigh each node's force by one step, so a step in which the dashpot's
+    force jumps (where the contact starts, and where it ends) is charged up to half a step of
+    dashpot impulse too much or too little, by the phase of the jump within the step. With a whole
+    number of steps per contact the end falls at the phase of the start and the two errors cancel,
+    except in a narrow window where the end slips past a node relative to the start: there both
+    add up to one full step of dashpot impulse, kd dt v / m = 2 zeta omega0 dt relative to the
+    speed (1.544% at zeta 0.3 and 128 steps: just above the 1.5% bound). That bound, to first order
+    in omega0 dt, holds at every fraction of steps per contact."""
+    for steps in STEP_FRACTIONS:
+        s = collisions("pairs", "velocity_verlet", zeta, steps, 3)
+        omega0_dt = math.pi / (s.tc_theory * math.sqrt(1.0 - zeta * zeta)) * s.dt  # t_c = pi / omega_d
+        one_step = 2.0 * zeta * omega0_dt
+        for name in s.probe_names:
+            err = s.worst_e_error(name)
+            assert err <= one_step * (1.0 + omega0_dt), (
+                f"{name}, {steps} steps per contact: {100 * err:.3f}% > one step of dashpot impulse "
+                f"{100 * one_step:.3f}%"
+            )
+
+
+def test_over_the_fractions_of_a_step_velocity_verlet_is_no_worse_than_symplectic_euler(collisions):
+    """The 1.5% bound at exactly 128 steps per contact favours symplectic Euler by a coincidence of
+    phase: at a whole number of steps its start and end errors partly cancel everywhere (1.12% at
+    zeta 0.3), at other fractions they do not. Over steps per contact in [128, 129) its worst case
+    exceeds Verlet's (measured: 1.88% at 128.5 against Verlet's 1.56% at 128)."""
+    worst = {}
+    for integrator in ("velocity_verlet", "symplectic_euler"):
+        worst[integrator] = max(
+            collisions("pairs", integrator, 0.3, steps, 3).worst_e_error(name)
+            for steps in STEP_FRACTIONS
+            for name in ("pair, equal masses", "pair, unequal masses")
+        )
+    assert worst["velocity_verlet"] < worst["symplectic_euler"], worst
+    assert worst["symplectic_euler"] > 0.015, worst  # the bound that holds at exactly 128 steps does not here
+
+
 @pytest.mark.parametrize("zeta", [0.1, 0.3])
 def test_explicit_euler_overshoots_and_implicit_euler_undershoots_restitution_at_first_order(collisions, zeta):
     """Forward Euler gains energy in every contact (e too high at every phase), linearised backward
