@@ -1026,9 +1026,9 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
         # What a ball receives, and in which order, depends on the slabs, never on the threads.
         if ne > 0:
             _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne)
-        layer = 1
-        for k in range(D - 1):
-            layer *= grid.dims[0, k]
+        # cells in one layer along the last axis (not "layer = 1; layer *= ...": the literal 1 typed
+        # one of the two passes' calls of _slab_forces apart, and compiled it twice)
+        layer = grid.dims[0, 0] * grid.dims[0, 1] if D == 3 else grid.dims[0, 0]
         slabs = grid.dims[0, D - 1]
         for t in prange(threads):
             for q in range(t, (slabs + 1) // 2, threads):  # round robin: the slabs differ in size
