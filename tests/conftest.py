@@ -274,6 +274,19 @@ def oscillator():
 # --------------------------------------------------------------------------------------------
 
 
+def _contact_kwargs(masses, ks=1e4, zeta=0.2, omega_dt=0.2):
+    """World keyword arguments for balls of these masses: ks, kd at damping ratio ``zeta`` for the
+    lightest pair, and dt at ``omega_dt`` of that pair's natural frequency."""
+    m_eff = np.min(masses) / 2
+    return dict(ks=ks, kd=2 * zeta * math.sqrt(ks * m_eff), dt=omega_dt / math.sqrt(ks / m_eff))
+
+
+@pytest.fixture(scope="session")
+def contact_kwargs():
+    return _contact_kwargs
+
+
+
 def scatter_balls(n, d, radius, center, bowl_radius, rng, min_height=None, spacing=0.01):
     """``n`` non-overlapping centres inside a bowl (clear of its wall), by rejection sampling."""
     center = np.asarray(center, dtype=np.float64)

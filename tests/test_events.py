@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from penalty_env.bench.accuracy import bowl_drop, pair_collision
-from penalty_env.physics import Bowl, World, events, theory
+from penalty_env.physics import Bowl, World, events
 
 PHASES = 1024
 

@@ -9,7 +9,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 import subprocess
 import sys
@@ -18,8 +17,8 @@ import textwrap
 import numpy as np
 import pytest
 
-from penalty_env.physics import Bowl, Sphere, World
-from penalty_env.physics.world import GRID_MIN_BALLS, LARGE_WORLD_MIN_BALLS
+from penalty_env.physics import Bowl, World
+from penalty_env.physics.world import GRID_MIN_BALLS
 
 ALL_INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
 
@@ -35,15 +34,10 @@ def _bowl_scene(n, d, seed, scatter, radius=None, spacing=0.002):
     return x, v, np.full(n, r), rng.uniform(0.5, 1.5, n), Bowl(tuple(center), R)
 
 
-def _kwargs(masses, ks=1e4, zeta=0.2, omega_dt=0.2):
-    m_eff = masses.min() / 2
-    return dict(ks=ks, kd=2 * zeta * math.sqrt(ks * m_eff), dt=omega_dt / math.sqrt(ks / m_eff))
-
-
 @pytest.mark.parametrize("d,n", [(2, 80), (3, 120)])
-def test_grid_and_all_pairs_broad_phases_give_the_same_trajectories(scatter, d, n):
+def test_grid_and_all_pairs_broad_phases_give_the_same_trajectories(scatter, d, n, contact_kwargs):
     x, v, radii, masses, bowl = _bowl_scene(n, d, seed=3, scatter=scatter)
-    kw = _kwargs(masses)
+    kw = contact_kwargs(masses)
     worlds = {bp: World(x, radii, masses, v, terrain=bowl, mu=0.3, broadphase=bp, **kw)
               for bp in ("all_pairs", "grid", "auto")}
     assert n >= GRID_MIN_BALLS  # so "auto" chooses the grid
@@ -80,12 +74,12 @@ def _batched_states(B, n, d, seed, scatter):
     ],
 )
 @pytest.mark.parametrize("integrator", ALL_INTEGRATORS)
-def test_batched_worlds_are_bit_identical_to_each_world_alone(scatter, integrator, variant):
+def test_batched_worlds_are_bit_identical_to_each_world_alone(scatter, integrator, variant, contact_kwargs):
     variant = dict(variant)
     use_forces = variant.pop("forces", False)
     B, n, d = 5, 12, 3
     x, v, radii, masses, bowl = _batched_states(B, n, d, seed=10, scatter=scatter)
-    kw = _kwargs(masses, zeta=0.3, omega_dt=0.1)  # explicit Euler needs omega dt <= 2 zeta
+    kw = contact_kwargs(masses, zeta=0.3, omega_dt=0.1)  # explicit Euler needs omega dt <= 2 zeta
     rng = np.random.default_rng(4)
     forces = rng.normal(0.0, 2.0, (B, n, d)) if use_forces else None
     batch = World(x, radii, masses, v, terrain=bowl, integrator=integrator, **variant, **kw)
@@ -104,10 +98,10 @@ def test_batched_worlds_are_bit_identical_to_each_world_alone(scatter, integrato
         assert batch.energy()[b] == w.energy()
 
 
-def test_resetting_one_world_of_a_batch_leaves_the_others_untouched(scatter):
+def test_resetting_one_world_of_a_batch_leaves_the_others_untouched(scatter, contact_kwargs):
     B, n, d = 3, 10, 2
     x, v, radii, masses, bowl = _batched_states(B, n, d, seed=20, scatter=scatter)
-    kw = _kwargs(masses)
+    kw = contact_kwargs(masses)
     batch = World(x, radii, masses, v, terrain=bowl, integrator="velocity_verlet", **kw)
     batch.step(50)
     before = batch.positions.copy()
@@ -162,221 +156,3 @@ def test_results_do_not_depend_on_the_thread_count():
         assert seen == str(threads)
         digests[threads] = hashes
     assert digests[1] == digests[2]
-
-
-def test_large_world_parallel_force_loop_matches_the_serial_all_pairs_world():
-    """From LARGE_WORLD_MIN_BALLS balls a grid world gathers each ball's forces in parallel (every
-    pair visited twice, once from each side): the same physics as the serial all-pairs loop."""
-    rng = np.random.default_rng(5)
-    k = 16
-    g = np.arange(k) * 0.196  # spacing < 2 r: every neighbour pair starts in contact
-    x = np.array([[a, b, c] for a in g for b in g for c in g]) - [1.47, 1.47, -0.11]
-    x = x + rng.normal(0, 0.005, x.shape)
-    n = x.shape[0]
-    kw = dict(ks=1e4, kd=2 * 0.2 * math.sqrt(1e4 * 0.5), dt=0.2 / math.sqrt(2e4))
-    bowl = Bowl((0, 0, 3.0), 3.0)
-    par = World(x, np.full(n, 0.1), np.ones(n), terrain=bowl, broadphase="grid", **kw)
-    ser = World(x, np.full(n, 0.1), np.ones(n), terrain=bowl, broadphase="all_pairs", **kw)
-    par.step(20)
-    ser.step(20)
-    assert par.max_penetration() > 0.0
-    np.testing.assert_allclose(par.positions, ser.positions, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(par.velocities, ser.velocities, rtol=0, atol=1e-10)
-
-
-def test_large_world_storage_order_changes_only_round_off():
-    """One large world keeps its balls sorted by grid cell in memory (re-sorted at every rebuild of
-    its neighbour list). The user sees balls in their own order; the physics is the same whatever
-    order they were given in, and splitting the steps into calls changes nothing, bit for bit."""
-    rng = np.random.default_rng(7)
-    k = 16
-    g = np.arange(k) * 0.196
-    x = np.array([[a, b, c] for a in g for b in g for c in g]) - [1.47, 1.47, -0.11]
-    x = x + rng.normal(0, 0.005, x.shape)
-    n = x.shape[0]
-    v = rng.normal(0, 0.2, x.shape)
-    radii = rng.uniform(0.095, 0.1, n)
-    masses = rng.uniform(0.8, 1.2, n)
-    kw = dict(ks=1e4, kd=2 * 0.2 * math.sqrt(1e4 * 0.4), dt=0.2 / math.sqrt(1e4 / 0.4), terrain=Bowl((0, 0, 3.0), 3.0),
-              broadphase="grid", mu=0.2)
-    steps = 53
-    forces = rng.normal(0.0, 1.0, x.shape)
-    ref = World(x, radii, masses, v, **kw)
-    assert ref._larges  # the sorted large-world path
-    ref.step(steps, forces=forces)
-    assert ref._larges[0][0].state[2] > 2  # the list was rebuilt (and the storage re-sorted) on the way
-    shuffle = rng.permutation(n)
-    mixed = World(x[shuffle], radii[shuffle], masses[shuffle], v[shuffle], **kw)
-    mixed.step(steps, forces=forces[shuffle])
-    np.testing.assert_allclose(mixed.positions, ref.positions[shuffle], rtol=0, atol=1e-10)
-    np.testing.assert_allclose(mixed.velocities, ref.velocities[shuffle], rtol=0, atol=1e-8)
-    split = World(x, radii, masses, v, **kw)
-    for chunk in (1, 23, 7, 22):
-        split.step(chunk, forces=forces)
-    np.testing.assert_array_equal(split.positions, ref.positions)
-    np.testing.assert_array_equal(split.velocities, ref.velocities)
-    assert ref.max_penetration() > 0.0
-    # new state: the world steps exactly as a new World made from that state
-    x1, v1 = ref.positions.copy(), ref.velocities.copy()
-    split.set_state(positions=x1, velocities=v1)
-    split.step(29, forces=forces)
-    fresh = World(x1, radii, masses, v1, **kw)
-    fresh.step(29, forces=forces)
-    np.testing.assert_array_equal(split.positions, fresh.positions)
-    np.testing.assert_array_equal(split.velocities, fresh.velocities)
-
-
-def _pile(n, d, seed, radii=None):
-    """n balls settled loosely in a bowl (a few hundred steps), their state and World arguments."""
-    rng = np.random.default_rng(seed)
-    r = 0.05 if radii is None else radii
-    radii = np.full(n, r) if np.isscalar(r) else np.asarray(r)
-    side = math.ceil(n ** (1 / d))
-    cell = 2.05 * radii.max()
-    pts = np.array(np.meshgrid(*[np.arange(side)] * d, indexing="ij")).reshape(d, -1).T[:n] * cell
-    pts = pts - pts.mean(0) + rng.normal(0, 0.002, pts.shape)
-    pts[:, -1] += 0.3 + radii.max()
-    masses = rng.uniform(0.8, 1.2, n)
-    bowl = Bowl((0.0,) * (d - 1) + (1.0,), 1.0)
-    return pts, radii, masses, bowl
-
-
-@pytest.mark.parametrize("d,mu,damping", [(2, 0.0, "linear"), (3, 0.0, "no_tension"), (3, 0.3, "linear")])
-def test_neighbour_list_world_matches_all_pairs_while_balls_escape_and_lists_rebuild(d, mu, damping):
-    """From LARGE_WORLD_MIN_BALLS balls a grid world steps through a Verlet neighbour list. Balls
-    that move half the skin "escape" (their contacts are searched each step) and, once too many
-    have, the list is rebuilt. A pile stirred by one fast ball shot through it exercises all of it:
-    the trajectories equal the all-pairs world's to round-off."""
-    n = LARGE_WORLD_MIN_BALLS + 72
-    x, radii, masses, bowl = _pile(n, d, seed=d)
-    kw = _kwargs(masses, zeta=0.3)
-    rng = np.random.default_rng(11)
-    v = rng.normal(0.0, 0.05, x.shape)
-    v[0] = 0.0
-    v[0, 0] = 3.0  # a fast ball through the pile
-    worlds = {bp: World(x, radii, masses, v, terrain=bowl, mu=mu, damping=damping, broadphase=bp, **kw)
-              for bp in ("all_pairs", "grid")}
-    g, a = worlds["grid"], worlds["all_pairs"]
-    assert g._larges, "the neighbour-list path"
-    escaped, contacts = 0, 0
-    for _ in range(15):  # (chaos amplifies round-off about 10x per 100 steps here)
-        for w in worlds.values():
-            w.step(20)
-        escaped = max(escaped, g._larges[0][0].state[3])
-        contacts += g.max_penetration() > 0.0
-        np.testing.assert_allclose(g.positions, a.positions, rtol=0, atol=1e-10)
-        np.testing.assert_allclose(g.velocities, a.velocities, rtol=0, atol=1e-8)
-    assert contacts == 15
-    assert escaped > 0, "some balls must have escaped their list"
-    assert g._larges[0][0].state[2] > 1, "the list must have been rebuilt"
-
-
-def test_a_ball_listed_far_from_the_terrain_still_bounces_off_it_after_escaping():
-    """A list world tests the terrain only for balls that were within a skin of it at the build
-    (and for escaped balls). A ball shot from the side of a pile, listed far from every shape,
-    escapes on its way and must then bounce off a Sphere obstacle exactly as in the all-pairs
-    world, before any rebuild could have refreshed its flag."""
-    n = LARGE_WORLD_MIN_BALLS + 88
-    x, radii, masses, bowl = _pile(n, 3, seed=7)
-    x = (x - x.mean(0)) * 1.2 + [0.0, 0.0, 0.55]  # apart: no other ball moves (nor escapes)
-    bowl = Bowl((0.0, 0.0, 1.5), 1.5)
-    x[np.argmin(np.linalg.norm(x - [0.0, 0.0, 0.0], axis=1))] = [0.0, 0.0, radii[0] + 0.005]  # near the floor
-    assert np.all(bowl.phi(x) > radii)
-    shot = int(np.argmin(np.linalg.norm(x - [x[:, 0].max(), 0.0, 0.55], axis=1)))
-    v = np.zeros_like(x)
-    v[shot, 0] = 2.0
-    terrain = (bowl, Sphere((0.55, x[shot, 1], x[shot, 2]), 0.1))  # head on
-    kw = _kwargs(masses, zeta=0.3)
-    worlds = {bp: World(x, radii, masses, v, terrain=terrain, gravity=(0.0, 0.0, 0.0), broadphase=bp, **kw)
-              for bp in ("all_pairs", "grid")}
-    g, a = worlds["grid"], worlds["all_pairs"]
-    g.step(1)
-    a.step(1)
-    lw = g._larges[0][0]
-    slot = int(np.flatnonzero(lw.perm == shot)[0])
-    assert lw.near[slot] == 0 and lw.near.any(), "the shot ball is listed clear of the terrain, some others are not"
-    for _ in range(15):
-        for w in worlds.values():
-            w.step(10)
-        np.testing.assert_allclose(g.positions, a.positions, rtol=0, atol=1e-10)
-        np.testing.assert_allclose(g.velocities, a.velocities, rtol=0, atol=1e-8)
-    assert a.velocities[shot, 0] < -0.2, "the shot ball bounced back off the Sphere"
-    assert lw.state[2] == 1, "no rebuild: the escaped path alone found the terrain"
-
-
-def test_a_ball_with_more_neighbours_than_the_list_holds_grows_the_list():
-    """A big ball pressed among many small ones has more neighbours than the list's first
-    capacity: the world grows the list and carries on, with the all-pairs world's physics."""
-    n = LARGE_WORLD_MIN_BALLS + 40
-    rng = np.random.default_rng(3)
-    radii = np.full(n, 0.04)
-    radii[0] = 0.2
-    u = rng.normal(size=(n - 1, 3))
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    x = np.vstack([[0.0, 0.0, 0.6], [0.0, 0.0, 0.6] + u * rng.uniform(0.2, 0.45, (n - 1, 1))])
-    masses = np.ones(n)
-    kw = _kwargs(masses, zeta=0.3)
-    bowl = Bowl((0.0, 0.0, 1.0), 1.0)
-    worlds = {bp: World(x, radii, masses, terrain=bowl, broadphase=bp, **kw) for bp in ("all_pairs", "grid")}
-    g = worlds["grid"]
-    first = g._larges[0][0].nbr.shape[1]
-    for w in worlds.values():
-        w.step(50)
-    assert g._larges[0][0].state[1] > first  # the big ball's neighbours did not fit at first
-    assert g._larges[0][0].nbr.shape[1] > g._larges[0][0].state[1]
-    np.testing.assert_allclose(g.positions, worlds["all_pairs"].positions, rtol=0, atol=1e-10)
-
-
-def test_batched_neighbour_list_worlds_are_bit_identical_to_each_world_alone():
-    """Each large world of a batch keeps its own grid, list and storage order."""
-    n = LARGE_WORLD_MIN_BALLS + 8
-    x, radii, masses, bowl = _pile(n, 3, seed=5)
-    kw = _kwargs(masses, zeta=0.3)
-    rng = np.random.default_rng(6)
-    xs = x[None] + rng.normal(0.0, 0.003, (3, n, 3))
-    vs = rng.normal(0.0, 0.2, (3, n, 3))
-    batch = World(xs, radii, masses, vs, terrain=bowl, broadphase="grid", **kw)
-    assert len(batch._larges) == 3
-    singles = [World(xs[b], radii, masses, vs[b], terrain=bowl, broadphase="grid", **kw) for b in range(3)]
-    for chunk in (37, 1, 62):
-        batch.step(chunk)
-        for w in singles:
-            w.step(chunk)
-    for b, w in enumerate(singles):
-        np.testing.assert_array_equal(batch.positions[b], w.positions)
-        np.testing.assert_array_equal(batch.velocities[b], w.velocities)
-
-
-def test_state_written_through_kernel_state_is_seen_after_invalidate_cache():
-    """Writing positions through ``kernel_state()`` and calling ``invalidate_cache`` restarts a large
-    world's neighbour list: a contact made by the write is felt at the next step."""
-    n = LARGE_WORLD_MIN_BALLS + 8
-    x, radii, masses, bowl = _pile(n, 2, seed=9)
-    kw = _kwargs(masses, zeta=0.3)
-    worlds = {bp: World(x, radii, masses, gravity=(0.0, 0.0), broadphase=bp, **kw) for bp in ("all_pairs", "grid")}
-    assert worlds["grid"]._larges
-    for w in worlds.values():
-        w.step(1)
-        ks = w.kernel_state()
-        ks.x[0, 1] = ks.x[0, 0] + [0.09, 0.0]  # ball 1 now overlaps ball 0 (radii 0.05)
-        w.invalidate_cache()
-        w.step(1)
-    a, g = worlds["all_pairs"], worlds["grid"]
-    assert np.abs(a.velocities[1]).max() > 0.0
-    np.testing.assert_allclose(g.velocities, a.velocities, rtol=0, atol=1e-12)
-
-
-def test_a_huge_finite_displacement_still_advances_every_other_ball():
-    """A ball flung at 1e160 m/s overflows its squared displacement; the rest of the world steps on
-    exactly as the all-pairs world does (the overflow only asks for a rebuild)."""
-    n = LARGE_WORLD_MIN_BALLS + 8
-    x, radii, masses, bowl = _pile(n, 3, seed=4)
-    v = np.zeros_like(x)
-    v[5, 0] = 1e160
-    kw = _kwargs(masses, zeta=0.3)
-    worlds = {bp: World(x, radii, masses, v, gravity=(0.0, 0.0, -9.81), broadphase=bp, **kw)
-              for bp in ("all_pairs", "grid")}
-    for w in worlds.values():
-        w.step(2)
-    keep = np.arange(n) != 5
-    np.testing.assert_allclose(worlds["grid"].positions[keep], worlds["all_pairs"].positions[keep], rtol=0, atol=1e-12)
