@@ -192,11 +192,12 @@ def compile_times() -> tuple[float, float]:
 @dataclass
 class _Phase(Rates):
     label: str
-    rates: list  # particle-substeps/s of each timed block
+    rates: list  # particle-substeps/s of each timed block, of every repetition
     steps_per_build: float
     listed: float  # listed pairs per ball at the end
     state: tuple = ()  # what LAMMPS needs to run the same span: (x, v, radii, masses, centre, R, ks, kd, g, dt, steps, skin)
     rates_1thread: list = field(default_factory=list)  # the settled pile on one thread (as many blocks again, after the others)
+    repeats: int = 1  # how many times the phase was run (LAMMPS is run as often)
 
 
 def _time_large(n: int):
@@ -204,14 +205,15 @@ def _time_large(n: int):
     settled pile (SETTLED_S after SETTLE_S more, at least 5 M particle-steps) of ``large_world(n)``.
     The settled pile is stationary, so it is timed in SETTLED_BLOCKS blocks: a spell of a slow machine
     shows as a spread (median against best) instead of one low figure. Up to 10,000 balls the spans are
-    short, and the whole run is repeated three times (best of three, per phase)."""
-    best = None
-    for _ in range(3 if n <= 10_000 else 1):
+    short, and the whole run is repeated three times; every block of every repetition counts (the
+    world is deterministic, so each repetition does the same work)."""
+    repeats = 3 if n <= 10_000 else 1
+    phases = {}
+    for _ in range(repeats):
         w = large_world(n)
         w.step(1)  # compile
         bowl = w.terrain[0]
         skin = NEIGHBOUR_SKIN * 2.0 * float(w.radii.max())
-        phases = []
         for label, span in (("slump", SLUMP_S), (None, SETTLE_S), ("settled", SETTLED_S)):
             steps = max(1, int(round(span / w.dt)))
             if label == "settled":
@@ -226,10 +228,13 @@ def _time_large(n: int):
                 t = time.perf_counter()
                 w.step(per_block)
                 rates.append(n * per_block / (time.perf_counter() - t))
-            if label is not None:
-                builds = (w._larges[0][0].state[2] - builds) if w._larges else per_block * blocks
-                listed = float(w._larges[0][0].count.mean()) if w._larges else float("nan")
-                phases.append(_Phase(label, rates, per_block * blocks / max(builds, 1), listed, state))
+            if label is None:
+                continue
+            builds = (w._larges[0][0].state[2] - builds) if w._larges else per_block * blocks
+            listed = float(w._larges[0][0].count.mean()) if w._larges else float("nan")
+            ph = phases.setdefault(label, _Phase(label, [], per_block * blocks / max(builds, 1), listed, state,
+                                                 repeats=repeats))
+            ph.rates.extend(rates)
             if label == "settled":  # the same pile on one thread, for the one-core comparison
                 threads = numba.get_num_threads()
                 numba.set_num_threads(1)
@@ -237,13 +242,10 @@ def _time_large(n: int):
                     for _ in range(blocks):
                         t = time.perf_counter()
                         w.step(per_block)
-                        phases[-1].rates_1thread.append(n * per_block / (time.perf_counter() - t))
+                        ph.rates_1thread.append(n * per_block / (time.perf_counter() - t))
                 finally:
                     numba.set_num_threads(threads)
-        if best is None:
-            best = phases
-        else:
-            best = [b if b.best >= p.best else p for b, p in zip(best, phases)]
+    best = [phases["slump"], phases["settled"]]
     mode = "neighbour list, parallel over balls" if w._larges else "one world per thread"
     return best, mode
 
@@ -267,13 +269,14 @@ def main(argv=None) -> None:
     peer = "skipped (--no-lammps)" if args.no_lammps else find_lammps()
     print(f"(b) one world packed in a bowl (grid): timed over the slump from the lattice (first {SLUMP_S:g} s "
           f"simulated), then settled (after {SLUMP_S + SETTLE_S:g} s, over {SETTLED_S:g} s or 5 M particle-steps in "
-          f"{SETTLED_BLOCKS} blocks: the best block, and the median; best of 3 runs up to 10,000 balls)")
+          f"{SETTLED_BLOCKS} blocks: the best block, and the median, over 3 runs up to 10,000 balls)")
     if isinstance(peer, str):
         print(f"    peer: {peer}; LAMMPS's logged one-core figure ({LAMMPS_PARTICLE_STEPS_PER_S / 1e6:g} M/s, "
               f"its chute benchmark, other hardware) stands in")
     else:
         print(f"    peer: LAMMPS ({peer.version}; pair gran/hooke, fix wall/gran/region on the same Bowl, fix nve) "
-              f"run from the World's own state at each phase, with its ks, kd, dt and skin, OPENMP on 1 and 2 threads")
+              f"run from the World's own state at each phase, with its ks, kd, dt and skin, OPENMP on 1 and "
+              f"{numba.get_num_threads()} threads, as many times as the World's run (best of all blocks against best)")
     per_particle = {}
     for n in sizes:
         phases, mode = _time_large(n)
@@ -289,13 +292,15 @@ def main(argv=None) -> None:
             if isinstance(peer, str):
                 print(f"{'':>26}{ph.best / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's logged 20.6 M/s")
                 continue
-            for threads in (1, 2):
-                run = run_lammps(peer, *ph.state, threads=threads, blocks=len(ph.rates))
+            for threads in sorted({1, numba.get_num_threads()}):
+                runs = [run_lammps(peer, *ph.state, threads=threads, blocks=len(ph.rates) // ph.repeats)
+                        for _ in range(ph.repeats)]
+                run = Rates(r for each in runs for r in each.rates)
                 spread = f" (median {run.median / 1e6:5.1f} M)" if len(run.rates) > 1 else ""
                 # like for like where ours was timed on one thread too (the settled pile)
                 ours, ours_threads = (one, 1) if threads == 1 and one is not None else (ph.best, numba.get_num_threads())
                 print(f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ' '}: {run.best / 1e6:6.1f} M "
-                      f"particle-steps/s{spread}, list rebuilt every {run.steps_per_build:5.1f} steps: "
+                      f"particle-steps/s{spread}, list rebuilt every {runs[0].steps_per_build:5.1f} steps: "
                       f"penalty_env ({ours_threads} thread{'s' if ours_threads > 1 else ''}) {ours / run.best:5.2f}x")
     ns = sorted(per_particle)
     for k, label in enumerate(("slump", "settled")):

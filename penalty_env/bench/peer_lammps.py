@@ -25,7 +25,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,14 +36,17 @@ _BUILDS = re.compile(r"Neighbor list builds = (\d+)")
 @dataclass(frozen=True)
 class Lammps:
     lmp: str  # the executable
-    env: dict  # its environment (the MPI library's folder on LD_LIBRARY_PATH)
-    version: str
+    env: dict = field(repr=False)  # its environment (the MPI library's folder on LD_LIBRARY_PATH)
+    version: str = "unknown version"
 
 
 class Rates:
     """Best and median of the per-block ``rates`` of a timed run (ours and LAMMPS's alike)."""
 
     rates: tuple
+
+    def __init__(self, rates=()):  # (the dataclasses below generate their own)
+        self.rates = tuple(rates)
 
     @property
     def best(self) -> float:
@@ -59,7 +62,8 @@ class LammpsRun(Rates):
     rates: tuple  # particle-steps per second of each timed block
     threads: int
     steps: int  # in all blocks
-    steps_per_build: float  # steps per neighbour-list build in the first block (LAMMPS's statistics)
+    steps_per_build: float  # steps per neighbour-list build in the first block (LAMMPS prints its statistics
+    # after that block only; the World's figure counts every block)
     x: np.ndarray | None = None  # the final state, with ``final_state=True``
     v: np.ndarray | None = None
 
