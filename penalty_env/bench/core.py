@@ -293,8 +293,12 @@ def main(argv=None) -> None:
                 print(f"{'':>26}{ph.best / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's logged 20.6 M/s")
                 continue
             for threads in sorted({1, numba.get_num_threads()}):
-                runs = [run_lammps(peer, *ph.state, threads=threads, blocks=len(ph.rates) // ph.repeats)
-                        for _ in range(ph.repeats)]
+                try:
+                    runs = [run_lammps(peer, *ph.state, threads=threads, blocks=len(ph.rates) // ph.repeats)
+                            for _ in range(ph.repeats)]
+                except (RuntimeError, OSError, subprocess.TimeoutExpired) as exc:
+                    print(f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ''}: failed ({str(exc)[-300:]})")
+                    continue
                 run = Rates(r for each in runs for r in each.rates)
                 spread = f" (median {run.median / 1e6:5.1f} M)" if len(run.rates) > 1 else ""
                 # like for like where ours was timed on one thread too (the settled pile)
