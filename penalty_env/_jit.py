@@ -14,6 +14,15 @@ which cost ~100 ns per pair check (measured) and contends between threads.
 
 ``fastmath`` is deliberately not used: it lets LLVM assume no NaN/inf, which would delete the
 ``np.isfinite`` guards the kernels rely on to report a blown-up simulation.
+
+Threading layer: the large-world kernels run in parallel through Numba's threading layer. Its
+default on Linux is GNU OpenMP where it is installed, and GNU OpenMP does not survive ``fork``: a
+forked child that runs a parallel kernel after its parent did is killed ("fork() called from a
+process already using GNU OpenMP"). So unless the user chose a layer (``NUMBA_THREADING_LAYER``),
+we ask Numba for a fork-safe one: TBB where its library loads, else Numba's own ``workqueue``
+(always present). ``workqueue`` does not allow two threads to launch parallel kernels at once, so
+the runner launches them one at a time (``runner.PARALLEL_LOCK``). Results do not depend on the
+layer: every parallel kernel splits its work by a fixed rule, not by the scheduler.
 """
 
 from __future__ import annotations
@@ -59,6 +68,16 @@ def _choose_cache_dir() -> None:
 
 
 _choose_cache_dir()
+
+
+def _choose_threading_layer() -> None:
+    """A fork-safe threading layer, unless the user chose one (see the module docstring)."""
+    if os.environ.get("NUMBA_THREADING_LAYER"):
+        return
+    _numba_config.THREADING_LAYER = "forksafe"
+
+
+_choose_threading_layer()
 
 
 def njit(*args, **kwargs):

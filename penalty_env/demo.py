@@ -1,4 +1,4 @@
-"""The course's 2D starter scene ("Particle Sand (DEM)", PHYSICS.md section 1) settling in its bowl.
+"""The course's 2D starter scene ("Particle Sand (DEM)", docs/physics.md section 1) settling in its bowl.
 
 Run: ``python -m penalty_env.demo``
 """

@@ -13,7 +13,8 @@ Importing this module imports stable-baselines3 (and torch); ``import penalty_en
 
 from __future__ import annotations
 
-from typing import Any, Iterable, Sequence
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -21,8 +22,9 @@ from gymnasium.utils import seeding
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
-from .envs import _kernels as KE
-from .envs.penalty_balls import MAX_EPISODE_STEPS, _coerce_action
+from . import _validate as V
+from .envs import fused_step as KE
+from .envs.penalty_balls import MAX_EPISODE_STEPS, _coerce_action, _render_fps
 from .envs.render import Renderer
 from .envs.scene import PenaltyBallsScene
 
@@ -57,11 +59,14 @@ class PenaltyBallsVecEnv(VecEnv):
             raise ValueError(f"max_episode_steps must be an int >= 1, got {max_episode_steps!r}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.scene = PenaltyBallsScene(n_envs, dim=dim, **kwargs)
+        self.scene = PenaltyBallsScene(V.integer("n_envs", n_envs, 1), dim=dim, owner="PenaltyBallsVecEnv.__init__",
+                                       **kwargs)
         self._never = np.zeros(n_envs, dtype=np.bool_)
         self.render_mode = render_mode
         self.max_episode_steps = int(max_episode_steps)
         super().__init__(self.scene.n_worlds, self.scene.observation_space, self.scene.action_space)
+        # SB3's VecVideoRecorder records at metadata["render_fps"] (30 when it is missing)
+        self.metadata: dict[str, Any] = {**self.metadata, "render_fps": _render_fps(self.scene.control_period)}
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._steps = np.zeros(self.num_envs, dtype=np.int64)
         self._actions: np.ndarray | None = None
@@ -99,11 +104,10 @@ class PenaltyBallsVecEnv(VecEnv):
             raise ValueError(f"the action of world {b} contains NaN or inf: {scene.actions[b].tolist()}")
         scene.step()
         self._steps += 1
-        out = scene.out
-        terminated = out[:, KE.O_SUCCESS] > 0.5
+        terminated = scene.buffers.success.copy()
         truncated = self._steps >= self.max_episode_steps
         dones = terminated | truncated
-        rewards = out[:, KE.O_REWARD].astype(np.float32)
+        rewards = scene.buffers.reward.astype(np.float32)
         infos = self._step_infos(truncated & ~terminated)
         if dones.any():
             idx = np.flatnonzero(dones)
@@ -112,7 +116,7 @@ class PenaltyBallsVecEnv(VecEnv):
             scene.reset_worlds(idx, [self._rngs[i] for i in idx])
             self._steps[idx] = 0
             for i in idx:
-                self.reset_infos[i] = scene.info(i)
+                self.reset_infos[i] = scene.info(int(i))
         return scene.obs.copy(), rewards, dones, infos
 
     def close(self) -> None:
@@ -133,7 +137,8 @@ class PenaltyBallsVecEnv(VecEnv):
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         setattr(self, attr_name, value)
 
-    def env_method(self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs) -> list[Any]:
+    def env_method(self, method_name: str, *method_args: Any, indices: VecEnvIndices = None,
+                   **method_kwargs: Any) -> list[Any]:
         method = getattr(self, method_name)
         return [method(*method_args, **method_kwargs) for _ in self._get_indices(indices)]
 
@@ -144,8 +149,9 @@ class PenaltyBallsVecEnv(VecEnv):
     def _step_infos(self, time_limit: np.ndarray) -> list[dict[str, Any]]:
         """One info dict per world, as a ``gymnasium.make`` env's step returns it, plus SB3's
         ``TimeLimit.truncated``."""
-        rows = self.scene.out.tolist()
-        infos = [PenaltyBallsScene.info_from_row(o) for o in rows]
+        buf = self.scene.buffers
+        keys = KE.INFO_KEYS
+        infos = [dict(zip(keys, row)) for row in zip(*buf.info, buf.success.tolist())]
         for info, flag in zip(infos, time_limit.tolist()):
             info["TimeLimit.truncated"] = flag
         return infos
@@ -191,7 +197,9 @@ def make_vec_env(
     if seed is not None:
         venv.seed(seed)
     if monitor:
-        mk = {"info_keywords": ("is_success",)}
+        mk: dict[str, Any] = {"info_keywords": ("is_success",)}
         mk.update(monitor_kwargs or {})
+        metadata = venv.metadata
         venv = VecMonitor(venv, **mk)
+        venv.metadata = metadata  # the wrapper's own would drop render_fps
     return venv

@@ -1,6 +1,6 @@
-"""Shared helpers for the physics tests (tests/test_physics_*.py).
+"""Shared helpers for the tests (scenes come from ``penalty_env.scenarios``).
 
-The main one measures single collisions against the closed forms of PHYSICS.md section 3: a
+The main one measures single collisions against the closed forms (docs/physics.md, "Closed forms"): a
 contact's coefficient of restitution and its duration, swept over where the contact starts within
 the step grid (one batched World holds every phase), so a test can assert the WORST case.
 
@@ -168,7 +168,7 @@ def _crossing_times(overlaps: np.ndarray, dt: float):
     return t_start, t_end
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def collision_sweep(geometry: str, integrator: str, zeta: float, steps_per_contact: float, d: int,
                     phases: int = 1024, damping: str = "linear", offset: float = 0.0,
                     options: tuple = ()) -> CollisionSweep:
@@ -284,28 +284,3 @@ def _contact_kwargs(masses, ks=1e4, zeta=0.2, omega_dt=0.2):
 @pytest.fixture(scope="session")
 def contact_kwargs():
     return _contact_kwargs
-
-
-
-def scatter_balls(n, d, radius, center, bowl_radius, rng, min_height=None, spacing=0.01):
-    """``n`` non-overlapping centres inside a bowl (clear of its wall), by rejection sampling."""
-    center = np.asarray(center, dtype=np.float64)
-    pts = []
-    tries = 0
-    while len(pts) < n:
-        tries += 1
-        if tries > 200_000:
-            raise RuntimeError("could not place the balls: the bowl is too full")
-        p = center + rng.uniform(-1.0, 1.0, d) * bowl_radius
-        if np.linalg.norm(p - center) > bowl_radius - radius - spacing:
-            continue
-        if min_height is not None and p[-1] < min_height:
-            continue
-        if all(np.linalg.norm(p - q) > 2.0 * radius + spacing for q in pts):
-            pts.append(p)
-    return np.array(pts)
-
-
-@pytest.fixture(scope="session")
-def scatter():
-    return scatter_balls

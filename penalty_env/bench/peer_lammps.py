@@ -1,6 +1,6 @@
 """LAMMPS on the same granular scene, as the peer of ``python -m penalty_env.bench core`` (b).
 
-LAMMPS's ``pair_style gran/hooke`` is the seed's linear spring-dashpot (PHYSICS.md section 5) and
+LAMMPS's ``pair_style gran/hooke`` is the seed's linear spring-dashpot (docs/physics.md section 7) and
 ``fix wall/gran/region`` with a ``sphere ... side in`` region is our Bowl, so LAMMPS can run the very
 state a World runs: the same positions and velocities, radii, masses, ks and kd (LAMMPS's damping is
 m_eff gamma_n v_n, so gamma_n = kd / m_eff: kd / (m / 2) between two balls of mass m, kd / m at the
@@ -165,7 +165,7 @@ thermo {max(1, int(steps))}
     if res.returncode != 0 or len(loops) != blocks:
         raise RuntimeError(f"LAMMPS failed (exit {res.returncode}): {(res.stdout + res.stderr)[-1500:]}")
     rates = []
-    for seconds, nprocs, nsteps, natoms in loops:
+    for seconds, _nprocs, nsteps, natoms in loops:
         if int(natoms) != x.shape[0]:
             raise RuntimeError(f"LAMMPS lost balls: {natoms} of {x.shape[0]} left")
         rates.append(int(natoms) * int(nsteps) / float(seconds))

@@ -7,6 +7,7 @@ as does the SB3 adapter (:mod:`penalty_env.sb3`), so all three produce the same 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
@@ -16,7 +17,8 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from . import _kernels as KE
+from .. import _validate as V
+from . import fused_step as KE
 from .render import HumanWindow, Renderer
 from .scene import PARAMETERS, PenaltyBallsScene
 
@@ -47,11 +49,24 @@ def _coerce_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
     return a
 
 
-def _check_options(options: dict[str, Any] | None, allowed: tuple[str, ...] = ()) -> None:
-    if options:
-        unknown = sorted(set(options) - set(allowed))
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {unknown}; PenaltyBalls accepts {list(allowed) or 'none'}")
+def _check_options(options: Any, allowed: tuple[str, ...] = ()) -> dict[str, Any]:
+    """``options`` as a dict: None or a mapping with string keys, each one of ``allowed``."""
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise V.ArgumentTypeError(f"options must be None or a dict, got {V.describe(options)} ({type(options).__name__})")
+    unknown = [k for k in options if k not in allowed]
+    if unknown:
+        raise ValueError(f"options has unknown key(s) {', '.join(map(repr, unknown))}; PenaltyBalls accepts "
+                         f"{', '.join(map(repr, allowed)) or 'none'}")
+    return dict(options)
+
+
+def _check_seed(seed: Any) -> int | None:
+    """A seed: None or an int >= 0 (numpy ints too, bools not)."""
+    if seed is None:
+        return None
+    return V.integer("seed", seed, 0, None)
 
 
 class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -117,7 +132,9 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     so a successful episode earns about 13 to 19 (3 to 8 for the ball's progress, up to ~1 for
     the pusher's, 10 for the success). `info` also holds `distance`,
     `pusher_distance`, `is_success` (bool; SB3's `EvalCallback` reads it) and `max_overlap`, the
-    physics diagnostic: the largest contact overlap as a fraction of the smaller radius.
+    physics diagnostic: the largest contact overlap as a fraction of the smaller radius. Info
+    values are numpy float64 scalars; `is_success` is a Python bool (Gymnasium's own vector envs
+    batch a numpy bool into an object array).
 
     ## Starting State
 
@@ -149,9 +166,11 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
       delta^2) and the motor pressing the pusher into a blocked ball at full force (ks >=
       max_force / delta) under delta = `penetration_tolerance` x the smaller radius [1481 N/m];
     - the dashpot gives the impact exactly the chosen `restitution` (normal force clipped at
-      zero: no pull at separation); the terrain uses the same spring, with the ball's bounce off
-      it at the same restitution. Obstacles share the spring and dashpot: a pair heavier than
-      pusher and ball rebounds more and overlaps deeper at the same speed, a lighter one less;
+      zero: no pull at separation); the terrain uses the same spring, stiffened where that spring
+      would let a body rest deeper than `penetration_tolerance` x its radius (ks_terrain >=
+      m g / (tolerance r) for every body), with the ball's bounce off it at the same restitution.
+      Obstacles share the spring and dashpot: a pair heavier than pusher and ball rebounds more
+      and overlaps deeper at the same speed, a lighter one less;
     - the substep `dt` is the largest symplectic-Euler step whose worst-case restitution error
       (over where a contact starts within the step), by the error models measured in
       `python -m penalty_env.bench accuracy`, stays within `restitution_accuracy` [30%: 9
@@ -191,7 +210,12 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Version History
 
-    * v0: Initial version.
+    * v0: Initial version. Its episodes stay bit for bit what they were, with two documented
+      exceptions that only touch argument combinations which did not work: where the
+      pusher-ball spring would rest a body deeper than its penetration tolerance (about 1 in 5 of
+      random in-range combinations, some burying a ball by more than its radius), the terrain
+      spring is stiffened to hold it there; and a combination whose nearly elastic contacts gain
+      energy at v0's substep warns (`EnergyDriftWarning`) instead of heating silently.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": _render_fps(PARAMETERS["control_period"][0])}
@@ -207,7 +231,7 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = self.scene.observation_space
         self._action_shape = self.action_space.shape
         self._actions = self.scene.actions
-        self._out = self.scene.out
+        self._buffers = self.scene.buffers
         self._obs = self.scene.obs
         self._needs_reset = True
         self._renderer: Renderer | None = None
@@ -221,15 +245,15 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
             action = _coerce_action(action, self._action_shape)
         self._actions[0] = action
         self.scene.step()  # NaN / inf actions raise ValueError here, before anything moves
-        o = self._out[0].tolist()
-        info = PenaltyBallsScene.info_from_row(o)
+        info = self.scene.info(0)
         if self.render_mode == "human":
             self.render()
-        return self._obs[0].copy(), o[KE.O_REWARD], info["is_success"], False, info
+        return self._obs[0].copy(), float(self._buffers.reward[0]), bool(self._buffers.success[0]), False, info
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-        super().reset(seed=seed)
+        seed = _check_seed(seed)
         _check_options(options)
+        super().reset(seed=seed)
         self.scene.reset_worlds([0], [self.np_random])
         self._needs_reset = False
         if self.render_mode == "human":
@@ -260,7 +284,7 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
             self._window = None
 
 
-PenaltyBallsEnv.__doc__ = PenaltyBallsEnv.__doc__.replace("{parameters}", _parameters_table().strip())
+PenaltyBallsEnv.__doc__ = (PenaltyBallsEnv.__doc__ or "").replace("{parameters}", _parameters_table().strip())
 
 
 class PenaltyBallsVectorEnv(VectorEnv):
@@ -300,7 +324,8 @@ class PenaltyBallsVectorEnv(VectorEnv):
             raise ValueError(
                 f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}"
             ) from None
-        self.scene = PenaltyBallsScene(num_envs, dim=dim, **kwargs)
+        self.scene = PenaltyBallsScene(V.integer("num_envs", num_envs, 1), dim=dim,
+                                       owner="PenaltyBallsVectorEnv.__init__", **kwargs)
         self.num_envs = self.scene.n_worlds
         self.dim = self.scene.dim
         self.max_episode_steps = int(max_episode_steps)
@@ -323,18 +348,22 @@ class PenaltyBallsVectorEnv(VectorEnv):
         self._never = np.zeros(N, dtype=np.bool_)
 
     # ------------------------------------------------------------------ Gymnasium API
-    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
+    def reset(self, *, seed: int | list[int | None] | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         N = self.num_envs
-        if seed is None or isinstance(seed, (int, np.integer)):
-            super().reset(seed=None if seed is None else int(seed))
-            seeds = [None] * N if seed is None else [int(seed) + i for i in range(N)]
-        else:
-            seeds = list(seed)
+        options = _check_options(options, ("reset_mask",))
+        if seed is None or isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
+            seed = _check_seed(seed)
+            seeds: list[int | None] = [None] * N if seed is None else [seed + i for i in range(N)]
+        elif isinstance(seed, (list, tuple, np.ndarray)):
+            seeds = [_check_seed(s) for s in seed]
             if len(seeds) != N:
                 raise ValueError(f"seed must be None, an int or a list of {N} seeds (one per world), got {len(seeds)}")
-        options = dict(options or {})
+        else:
+            raise V.ArgumentTypeError(f"seed must be None, an int >= 0 or a list of {N} of them, got {V.describe(seed)}")
         mask = options.pop("reset_mask", None)
-        _check_options(options)
+        if seed is None or isinstance(seed, int):
+            super().reset(seed=seed)
         if mask is None:
             mask = self._ones
         elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (N,) and mask.any()):
@@ -349,7 +378,7 @@ class PenaltyBallsVectorEnv(VectorEnv):
         self._started = True
         return self.scene.obs.copy(), self._infos(mask)
 
-    def step(self, actions: np.ndarray):
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
             raise error.ResetNeeded("Cannot call PenaltyBallsVectorEnv.step() before reset()")
         scene = self.scene
@@ -371,15 +400,14 @@ class PenaltyBallsVectorEnv(VectorEnv):
             idx = np.flatnonzero(resetting)
             scene.reset_worlds(idx, [self._rngs[i] for i in idx], observe=False)  # stepped as "just reset"
             scene.step()
-            scene._stepping[idx] = True
+            scene.stepping[idx] = True
             self._steps[idx] = -1  # += 1 below
         else:
             scene.step()
         self._steps += 1
-        out = scene.out
-        terminated = out[:, KE.O_SUCCESS] > 0.5
+        terminated = scene.buffers.success.copy()
         truncated = self._steps >= self.max_episode_steps
-        rewards = out[:, KE.O_REWARD].copy()
+        rewards = scene.buffers.reward.copy()
         done = terminated | truncated
         if mode == AutoresetMode.SAME_STEP and done.any():
             idx = np.flatnonzero(done)
@@ -410,20 +438,25 @@ class PenaltyBallsVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ helpers
     def _infos(self, mask: np.ndarray) -> dict[str, Any]:
         """Gymnasium's vector info dict for the worlds in ``mask``: one array per key and the
-        ``_key`` mask, as ``SyncVectorEnv`` builds it from the single envs' infos. The arrays are
-        rows of two fresh arrays: two allocations per step, not fourteen."""
-        values = self.scene.out[:, : KE.N_INFO].T.copy()  # (keys, N), in INFO_KEYS order
+        ``_key`` mask, as ``SyncVectorEnv`` builds it from the single envs' infos. The float
+        arrays are rows of one fresh block: a few allocations per step, not one per key and world."""
+        buf = self.scene.buffers
+        values = buf.info.copy()  # (keys - 1, N), in INFO_KEYS order
+        success = buf.success.copy()
+        n_keys = len(KE.INFO_KEYS)
         if mask is self._ones:
-            masks = np.ones((KE.N_INFO, self.num_envs), dtype=np.bool_)
+            masks = np.ones((n_keys, self.num_envs), dtype=np.bool_)
         else:
             values[:, ~mask] = 0.0
-            masks = np.empty((KE.N_INFO, self.num_envs), dtype=np.bool_)
+            success[~mask] = False
+            masks = np.empty((n_keys, self.num_envs), dtype=np.bool_)
             masks[:] = mask
         infos: dict[str, Any] = {}
-        for j, key in enumerate(PenaltyBallsScene.INFO_KEYS):
+        for j, key in enumerate(KE.INFO_KEYS[:-1]):
             infos[key] = values[j]
             infos["_" + key] = masks[j]
-        infos["is_success"] = values[KE.O_SUCCESS] > 0.5
+        infos["is_success"] = success
+        infos["_is_success"] = masks[-1]
         return infos
 
     def __repr__(self) -> str:

@@ -15,17 +15,19 @@ Units are SI (metres, kilograms, seconds, newtons). The last axis is up.
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
-import numba
 import numpy as np
 from gymnasium import spaces
 
-from ..physics import Bowl, World
+from .. import _validate as V
+from ..physics import Bowl, World, theory
+from ..physics import runner as _runner
 from ..physics.configure import configure
 from ..physics.lanes import LANES
-from . import _kernels as KE
+from . import fused_step as KE
+from .observation import ObservationLayout
 
 __all__ = ["PenaltyBallsScene", "PARAMETERS", "check_parameters"]
 
@@ -69,48 +71,23 @@ W_GOAL = 10.0  # per metre the ball gets closer to the goal
 W_REACH = 1.0  # per metre the pusher gets closer to the push point behind the ball
 SUCCESS_BONUS = 10.0
 
-# Batches with at least this many ball-substeps per step are spread over threads (measured with
-# ``python -m penalty_env.bench env``: a thread hand-off costs about as much as ~2,000 of them).
-PARALLEL_MIN_WORK = 2_000
-
-_POOL: ThreadPoolExecutor | None = None
-
-
-def _threads() -> int:
-    return max(1, int(numba.config.NUMBA_NUM_THREADS))
-
-
-def _pool() -> ThreadPoolExecutor:
-    global _POOL
-    if _POOL is None:
-        _POOL = ThreadPoolExecutor(max_workers=_threads(), thread_name_prefix="penalty_env.envs")
-    return _POOL
-
-
-def check_parameters(dim: int, params: dict[str, Any]) -> dict[str, Any]:
-    """Validated keyword arguments, defaults filled in. Raises ValueError naming the bad argument
-    and its allowed range, TypeError for an unknown one."""
+def check_parameters(dim: int, params: dict[str, Any], owner: str = "PenaltyBallsEnv.__init__") -> dict[str, Any]:
+    """Validated keyword arguments, defaults filled in. Raises ValueError naming the bad argument,
+    its value and its allowed range, and TypeError in Python's own wording for an unknown one
+    (``owner() got an unexpected keyword argument 'x'``: wrappers such as TorchRL's ``GymEnv`` read
+    it to retry without the argument)."""
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got {dim!r}")
-    unknown = sorted(set(params) - set(PARAMETERS))
-    if unknown:
-        raise TypeError(f"unknown keyword argument(s) {unknown}; allowed: {sorted(PARAMETERS)}")
+    for name in params:
+        if name not in PARAMETERS:
+            raise TypeError(f"{owner}() got an unexpected keyword argument {name!r} (allowed: {', '.join(PARAMETERS)})")
     out: dict[str, Any] = {}
     for name, (default, lo, hi, meaning) in PARAMETERS.items():
         value = params.get(name, default)
         if name in INT_PARAMETERS:
-            ok = isinstance(value, (int, np.integer)) and not isinstance(value, bool) and lo <= value <= hi
-            if not ok:
-                raise ValueError(f"{name} ({meaning}) must be an int in [{lo}, {hi}], got {value!r}")
-            out[name] = int(value)
+            out[name] = V.integer(name, value, lo, hi, meaning)
         else:
-            try:
-                v = float(value)
-            except (TypeError, ValueError):
-                v = math.nan
-            if isinstance(value, bool) or not (math.isfinite(v) and lo <= v <= hi):
-                raise ValueError(f"{name} ({meaning}) must be a number in [{lo}, {hi}], got {value!r}")
-            out[name] = v
+            out[name] = V.in_range(name, value, lo, hi, meaning)
     n_obs = out["n_obstacles"]
     if n_obs:
         region = OBSTACLE_REGION[dim]
@@ -132,13 +109,13 @@ class PenaltyBallsScene:
     Args:
         n_worlds: number of independent worlds B.
         dim: 3 (spheres in a bowl) or 2 (the vertical slice: circles in a circular bowl).
+        owner: the caller named in the TypeError for an unknown keyword argument.
         **params: keyword arguments of :data:`PARAMETERS`.
     """
 
-    def __init__(self, n_worlds: int, dim: int = 3, **params: Any) -> None:
-        if isinstance(n_worlds, bool) or not isinstance(n_worlds, (int, np.integer)) or n_worlds < 1:
-            raise ValueError(f"the number of worlds must be an int >= 1, got {n_worlds!r}")
-        p = check_parameters(dim, params)
+    def __init__(self, n_worlds: int, dim: int = 3, owner: str = "PenaltyBallsEnv.__init__", **params: Any) -> None:
+        n_worlds = V.integer("n_worlds", n_worlds, 1)
+        p = check_parameters(dim, params, owner)
         self.params = p
         self.dim = d = int(dim)
         self.n_worlds = B = int(n_worlds)
@@ -164,18 +141,22 @@ class PenaltyBallsScene:
             self.masses[:2], self.radii[:2], max_impact_speed=p["max_speed"], penetration=p["penetration_tolerance"],
             restitution=p["restitution"], accuracy=p["restitution_accuracy"], damping="no_tension",
             terrain=False, integrators=("symplectic_euler",), events=False, max_dt=self.control_period,
-            max_force=p["max_force"],
+            max_force=p["max_force"], energy_budget=None,  # v0's substep rule (its episodes stay as they were)
         )
         self.ks = self.config.ks
         self.kd = self.config.kd
-        # terrain: the same spring; its dashpot gives the ball's bounce off the terrain the same
-        # restitution. A body on the terrain is heavier than any pair's m_eff, so its contacts are
-        # longer than the pair contact configure resolved: at least as many steps per contact.
-        self.ks_terrain = self.ks
+        # terrain: the same spring, stiffened where a body would otherwise rest deeper than the
+        # penetration tolerance (resting overlap m g / ks <= tol r for every body: ks_t >= m g /
+        # (tol r)); its dashpot gives the ball's bounce off the terrain the same restitution. A body
+        # on the terrain is heavier than any pair's m_eff, so its contacts are longer than the pair
+        # contact configure resolved: at least as many steps per contact (the stability limit below
+        # covers a stiffened terrain).
+        self.ks_rest = float(np.max(self.masses * self.gravity / (p["penetration_tolerance"] * self.radii)))
+        self.ks_terrain = max(self.ks, self.ks_rest)
         self.kd_terrain = 2.0 * self.config.zeta * math.sqrt(self.ks_terrain * p["ball_mass"])
         gravity = (0.0,) * (d - 1) + (-self.gravity,)
         start = self._placeholder_positions()
-        common = dict(
+        common: dict[str, Any] = dict(
             terrain=(self.bowl,), gravity=gravity, ks=self.ks, kd=self.kd, ks_terrain=self.ks_terrain,
             kd_terrain=self.kd_terrain, damping="no_tension", integrator="symplectic_euler",
             broadphase="all_pairs",
@@ -189,7 +170,7 @@ class PenaltyBallsScene:
         # regularised Coulomb friction: the viscous slope kf is the largest that still brings the
         # lightest contact's sliding to rest within one substep without overshoot (kf dt / m = 1)
         m_sorted = np.sort(self.masses)
-        m_eff_min = m_sorted[0] * m_sorted[1] / (m_sorted[0] + m_sorted[1])
+        m_eff_min = theory.effective_mass(m_sorted[0], m_sorted[1])
         self.kf = m_eff_min / self.dt
         # the motor's speed feedback F_max / v_max acts like a dashpot on the pusher, explicit in
         # each substep: keep it from overshooting (c dt / m <= 1)
@@ -203,26 +184,22 @@ class PenaltyBallsScene:
         self.mu = p["friction"]
         self.world = World(start, self.radii, self.masses, dt=self.dt, mu=self.mu, kf=self.kf, **common)
 
-        # --- spaces
+        # --- spaces and the observation's layout (one definition: the kernel, the bounds, the docs)
         self.action_size = d - 1
-        self.obs_size = 7 * d + 2 * d * self.n_obstacles
         pos_bound = R
         self.vel_bound = max(10.0 * p["max_speed"], math.sqrt(4.0 * self.gravity * R))
-        low, high = self._obs_bounds(pos_bound, self.vel_bound)
-        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.layout = ObservationLayout(d, self.n_obstacles, pos_bound, self.vel_bound)
+        self.obs_size = self.layout.size
+        self.observation_space = spaces.Box(self.layout.low.astype(np.float32), self.layout.high.astype(np.float32),
+                                            dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (self.action_size,), dtype=np.float32)
 
-        # --- constants the kernel reads (the contact model is the World's own: kernel_state())
-        self._envp = np.zeros(KE.N_ENVP)
-        self._envp[KE.E_MAX_FORCE] = p["max_force"]
-        self._envp[KE.E_MAX_SPEED] = p["max_speed"]
-        self._envp[KE.E_W_GOAL] = W_GOAL
-        self._envp[KE.E_W_REACH] = W_REACH
-        self._envp[KE.E_BONUS] = SUCCESS_BONUS
-        self._envp[KE.E_GOAL_TOL] = self.goal_tolerance
-        self._envp[KE.E_PUSH_OFFSET] = p["pusher_radius"] + p["ball_radius"]
-        self._envp[KE.E_POS_BOUND] = pos_bound
-        self._envp[KE.E_VEL_BOUND] = self.vel_bound
+        # --- the task's constants the kernel reads (the contact model is the World's own)
+        self.task = KE.TaskParams(
+            max_force=p["max_force"], max_speed=p["max_speed"], w_goal=W_GOAL, w_reach=W_REACH,
+            success_bonus=SUCCESS_BONUS, goal_tolerance=self.goal_tolerance,
+            push_offset=p["pusher_radius"] + p["ball_radius"],
+        )
         # resting overlap m g / ks puts each ball at rest on the terrain at the start
         rest_depth = self.masses * self.gravity / self.ks_terrain
         # a resting centre sits at radius - m g / ks above the terrain (per ball; the goal as the ball)
@@ -232,20 +209,25 @@ class PenaltyBallsScene:
 
         # --- per-world state and output buffers, allocated once
         self.goal = np.zeros((B, d))
-        self._prev = np.zeros((B, 2))
-        self.obs = np.zeros((B, self.obs_size), dtype=np.float32)
-        self.out = np.zeros((B, KE.N_OUT))
+        self.buffers = KE.new_buffers(B, self.obs_size)
+        self.obs = self.buffers.obs
         self.actions = np.zeros((B, self.action_size))
-        self._stepping = np.ones(B, dtype=np.bool_)
-        self._status = np.zeros(B, dtype=np.int64)
+        self.stepping = np.ones(B, dtype=np.bool_)  # off for a world just reset: observed, not stepped
         self._all = np.arange(B, dtype=np.int64)
         self._chunks = self._split(self._all)
         self._velocity_zeros = np.zeros((B, n, d))
         # one SIMD-lane scratch per thread (the kernel's chunks run concurrently)
-        threads = max(1, _threads())
+        threads = _runner.thread_count()
         self._lane_scratch = np.zeros((threads, 6, n, d, LANES))
         self._lane_ids = np.zeros((threads, LANES), dtype=np.int64)
-        self._args = self._kernel_args()
+        # what the kernel steps: the World's own state and model (so ``world.positions``,
+        # ``set_state``, ``energy`` and ``max_penetration`` see what the env steps). The World is
+        # stepped with symplectic Euler over all pairs, which keeps nothing derived from its state,
+        # so writing the state in the kernel leaves nothing stale.
+        state, model = self.world.state, self.world.model
+        self._state = (state.positions, state.velocities)
+        self._tail = (model, model.friction, model.gravity, self.dt, self.substeps, self.task, self.layout.table,
+                      self.layout.low, self.layout.high, self.goal, self.buffers)
 
     # ------------------------------------------------------------------ construction helpers
     def _placeholder_positions(self) -> np.ndarray:
@@ -260,29 +242,8 @@ class PenaltyBallsScene:
             x += r + 0.05
         return pos
 
-    def _obs_bounds(self, pb: float, vb: float) -> tuple[np.ndarray, np.ndarray]:
-        d = self.dim
-        pos_lo = np.array([-pb] * (d - 1) + [0.0])
-        pos_hi = np.array([pb] * (d - 1) + [2.0 * pb])
-        vel = np.full(d, vb)
-        rel = np.full(d, 2.0 * pb)
-        low = [pos_lo, -vel, pos_lo, -vel, pos_lo, -rel, -rel] + [pos_lo, -vel] * self.n_obstacles
-        high = [pos_hi, vel, pos_hi, vel, pos_hi, rel, rel] + [pos_hi, vel] * self.n_obstacles
-        return np.concatenate(low).astype(np.float32), np.concatenate(high).astype(np.float32)
-
-    def _kernel_args(self) -> tuple:
-        """What the kernel steps: the World's own state, model, friction and gravity
-        (``World.kernel_state``), so ``World.positions``, ``set_state``, ``energy`` and
-        ``max_penetration`` see what the env steps, and the contact model has one source."""
-        ks = self.world.kernel_state()
-        # x, v: (B, n, d), written in place by the kernel and by set_state
-        return (ks.x, ks.v), (ks.model, ks.friction, ks.gravity, self.dt, self.substeps, self._envp, self.goal,
-                              self._prev, self.obs, self.out, self._status)
-
     def _split(self, worlds: np.ndarray) -> list[np.ndarray]:
-        work = worlds.size * self.n_balls * self.substeps
-        parts = min(_threads(), worlds.size) if work >= PARALLEL_MIN_WORK else 1
-        return [c for c in np.array_split(worlds, parts)] if parts > 1 else [worlds]
+        return _runner.split(worlds, self.n_balls * self.substeps)
 
     # ------------------------------------------------------------------ stepping
     def step(self) -> None:
@@ -291,16 +252,11 @@ class PenaltyBallsScene:
         self._run(self._all, self._chunks)
 
     def _run(self, worlds: np.ndarray, chunks: Sequence[np.ndarray]) -> None:
-        kernel, act, stepping = KE.step_worlds, self.actions, self._stepping
-        (x, v), tail = self._args
-        scratch, ids = self._lane_scratch, self._lane_ids
-        if len(chunks) == 1:
-            code = kernel(worlds, act, stepping, x, v, scratch[0], ids[0], *tail)
-        else:
-            futures = [_pool().submit(kernel, c, act, stepping, x, v, scratch[i], ids[i], *tail)
-                       for i, c in enumerate(chunks)]
-            codes = [f.result() for f in futures]
-            code = min(codes) if min(codes) < 0 else sum(codes)
+        x, v = self._state
+        head = (self.actions, self.stepping, x, v)
+        codes = _runner.dispatch(KE.step_worlds, [(c,) + head + (self._lane_scratch[i], self._lane_ids[i]) + self._tail
+                                                  for i, c in enumerate(chunks)])
+        code = min(codes) if min(codes) < 0 else sum(codes)
         if code != KE.OK:
             self._raise(code)
 
@@ -309,7 +265,7 @@ class PenaltyBallsScene:
             b = -code - 1
             where = "" if self.n_worlds == 1 else f" of world {b}"
             raise ValueError(f"the action{where} contains NaN or inf: {self.actions[b].tolist()}")
-        bad = np.flatnonzero(self._status).tolist()
+        bad = np.flatnonzero(self.buffers.status).tolist()
         raise FloatingPointError(
             f"the physics produced NaN or inf in world(s) {bad[:10]} (dt={self.dt:g}, "
             f"substeps={self.substeps}); the scene's parameters are outside what the contact model "
@@ -317,21 +273,24 @@ class PenaltyBallsScene:
         )
 
     # ------------------------------------------------------------------ resets
-    def reset_worlds(self, worlds: Sequence[int], rngs: Sequence[np.random.Generator], observe: bool = True) -> None:
+    def reset_worlds(self, worlds: Sequence[int] | np.ndarray, rngs: Sequence[np.random.Generator | None],
+                     observe: bool = True) -> None:
         """Draw a new start for each world in ``worlds`` from the matching generator in ``rngs``,
         and (``observe``) compute its observation. With ``observe=False`` the world's flag is left
         off, so the next ``step`` observes it without stepping it."""
         idx = np.asarray(worlds, dtype=np.int64)
         # horizontal positions (k, n + 1, d - 1): the balls, then the goal; lifted onto the
         # terrain together below
-        flat = np.array([self._sample(rngs[j]) for j in range(idx.size)]).reshape(idx.size, self.n_balls + 1, -1)
+        if any(rng is None for rng in rngs):
+            raise ValueError("every world reset needs its random generator (reset the env, with or without a seed)")
+        flat = np.array([self._sample(rng) for rng in rngs if rng is not None]).reshape(idx.size, self.n_balls + 1, -1)
         pos = self._on_terrain(flat)
         self.goal[idx] = pos[:, -1]
         self.world.set_state(positions=pos[:, :-1], velocities=self._velocity_zeros[: idx.size], worlds=idx)
-        self._stepping[idx] = False
+        self.stepping[idx] = False
         if observe:
             self._run(idx, self._split(idx))
-            self._stepping[idx] = True
+            self.stepping[idx] = True
 
     def _on_terrain(self, h: np.ndarray) -> np.ndarray:
         """Centres resting on the terrain at horizontal positions ``h`` (..., n + 1, d - 1): each
@@ -347,6 +306,9 @@ class PenaltyBallsScene:
         a handful of scalars, and numpy's per-call cost would dominate."""
         contact = self._contact
         g0, g1 = GOAL_DISTANCE
+        ball: tuple[float, ...]
+        target: tuple[float, ...]
+        pusher: tuple[float, ...]
         p0, p1 = PUSHER_GAP
         if self.dim == 3:
             u = rng.random(6).tolist()
@@ -381,7 +343,7 @@ class PenaltyBallsScene:
                 if d == 3:
                     u = rng.random(2).tolist()
                     rho, phi = region * math.sqrt(u[0]), 2.0 * math.pi * u[1]
-                    h = (rho * math.cos(phi), rho * math.sin(phi))
+                    h: tuple[float, ...] = (rho * math.cos(phi), rho * math.sin(phi))
                 else:
                     h = (region * (2.0 * rng.random() - 1.0),)
                 clear = math.dist(h, target) >= goal_clear and all(
@@ -394,30 +356,27 @@ class PenaltyBallsScene:
             placed.append(h)
 
     # ------------------------------------------------------------------ read-out
+    INFO_KEYS = KE.INFO_KEYS
+
     def info(self, b: int) -> dict[str, Any]:
-        """World b's info dict of the last step or reset (Python scalars)."""
-        return self.info_from_row(self.out[b].tolist())
-
-    @staticmethod
-    def info_from_row(o: list[float]) -> dict[str, Any]:
-        """The info dict of one world's ``out`` row (as a list of floats)."""
+        """World b's info dict of the last step or reset: numpy float64 scalars, and ``is_success``
+        a Python bool (Gymnasium's own vector envs batch a numpy bool into an object array)."""
+        buf = self.buffers
         return {
-            "reward_goal": o[KE.O_REWARD_GOAL],
-            "reward_reach": o[KE.O_REWARD_REACH],
-            "reward_success": o[KE.O_REWARD_SUCCESS],
-            "distance": o[KE.O_DISTANCE],
-            "pusher_distance": o[KE.O_PUSHER_DISTANCE],
-            "max_overlap": o[KE.O_MAX_OVERLAP],
-            "is_success": o[KE.O_SUCCESS] > 0.5,
+            "reward_goal": buf.reward_goal[b],
+            "reward_reach": buf.reward_reach[b],
+            "reward_success": buf.reward_success[b],
+            "distance": buf.distance[b],
+            "pusher_distance": buf.pusher_distance[b],
+            "max_overlap": buf.max_overlap[b],
+            "is_success": bool(buf.success[b]),
         }
-
-    # the info dict's keys, in the order of the kernel's ``out`` columns 0 .. N_INFO - 1
-    INFO_KEYS = ("reward_goal", "reward_reach", "reward_success", "distance", "pusher_distance", "max_overlap", "is_success")
 
     def describe(self) -> str:
         """The derived physics, one line."""
         return (
-            f"ks={self.ks:.4g} N/m, kd={self.kd:.4g} N s/m, kd_terrain={self.kd_terrain:.4g} N s/m, "
+            f"ks={self.ks:.4g} N/m, kd={self.kd:.4g} N s/m, ks_terrain={self.ks_terrain:.4g} N/m, "
+            f"kd_terrain={self.kd_terrain:.4g} N s/m, "
             f"mu={self.mu:g}, kf={self.kf:.4g} N s/m, dt={self.dt:.4g} s x {self.substeps} substeps "
             f"per {self.control_period:g} s step"
         )

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .observation import ObservationLayout
+
 __all__ = ["ScriptedPusher"]
 
 
@@ -24,9 +26,13 @@ class ScriptedPusher:
     def __init__(self, dim: int = 3, contact: float = 0.3) -> None:
         self.dim = int(dim)
         self.contact = float(contact)
+        layout = ObservationLayout(self.dim, 0, 1.0, 1.0)  # field positions only (obstacles come last)
+        h = self.dim - 1  # the horizontal part of each position
+        self._pusher, self._ball, self._goal = (slice(layout.slice(name).start, layout.slice(name).start + h)
+                                                for name in ("pusher position", "ball position", "goal position"))
 
     @classmethod
-    def for_env(cls, env) -> "ScriptedPusher":
+    def for_env(cls, env) -> ScriptedPusher:
         scene = env.unwrapped.scene
         return cls(scene.dim, float(scene.radii[0] + scene.radii[1]))
 
@@ -34,10 +40,10 @@ class ScriptedPusher:
         obs = np.asarray(obs)
         if obs.ndim == 2:
             return np.stack([self(o) for o in obs])
-        d, h, c = self.dim, self.dim - 1, self.contact
-        p = obs[0:h].astype(np.float64)
-        b = obs[2 * d:2 * d + h].astype(np.float64)
-        g = obs[4 * d:4 * d + h].astype(np.float64)
+        h, c = self.dim - 1, self.contact
+        p = obs[self._pusher].astype(np.float64)
+        b = obs[self._ball].astype(np.float64)
+        g = obs[self._goal].astype(np.float64)
         to_goal = g - b
         u = to_goal / max(float(np.linalg.norm(to_goal)), 1e-9)
         rel = p - b

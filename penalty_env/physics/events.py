@@ -6,7 +6,7 @@ The seed's contact force is switched by geometry: it acts while ``|x_j - x_i| < 
 (pair) or ``phi(c_i) - r_i < 0`` (terrain). At a switch the spring force has a kink and the
 dashpot force jumps (by ``kd v_n`` when a contact begins and when it ends), so a step that straddles
 a switch integrates a discontinuous right-hand side: every integrator is then first order in the
-worst case over where the switch falls in the step (PHYSICS.md section 4; RK4 at 64 steps per
+worst case over where the switch falls in the step (docs/physics.md section 4; RK4 at 64 steps per
 contact is no better than 1% at zeta = 0.3). Hybrid-system solvers restore the order by stopping
 at the switch. This module does that for the penalty core, with the core's own step functions.
 
@@ -57,11 +57,14 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
+from numba.extending import overload
 
 from .._jit import njit
-from . import kernels as K
+from .broadphase import build_grid, neighbour_rows
+from .contact import pair_gap, shape_sign, terrain_gap
+from .integrators import RK4Work, VelocityVerletWork, _is, begin_world, integrate, symplectic_euler_into, world_status
 
-__all__ = ["EventBuffers", "allocate", "run", "stats", "GAP_TOL", "MAX_CALLS"]
+__all__ = ["EventBuffers", "allocate", "run_worlds", "stats", "GAP_TOL", "MAX_CALLS"]
 
 # Scratch buffers of the event-located drivers, allocated once per World (nothing is allocated
 # while stepping).
@@ -115,7 +118,7 @@ def stats(world_or_buffers) -> dict:
     ``integrator_calls``, ``force_evaluations`` (full contact passes, including the trial, landing and
     crossing steps), ``events`` (switches located and crossed) and ``fallbacks`` (steps finished
     plainly)."""
-    buffers = getattr(world_or_buffers, "_events", world_or_buffers)
+    buffers = getattr(world_or_buffers, "event_buffers", world_or_buffers)
     if buffers is None:
         raise ValueError("this World steps without event location (make it with events=True)")
     c = buffers.counts.sum(axis=0)
@@ -136,17 +139,9 @@ def stats(world_or_buffers) -> dict:
 @njit
 def _gap(kind, b, i, j, x, model, D):
     """Signed gap of a contact: |x_j - x_i| - (r_i + r_j) (pair) or phi(c_i) - r_i (terrain j)."""
-    d2 = 0.0
     if kind == KIND_PAIR:
-        for k in range(D):
-            dx = x[b, j, k] - x[b, i, k]
-            d2 += dx * dx
-        return np.sqrt(d2) - (model.radii[i] + model.radii[j])
-    for k in range(D):
-        dx = x[b, i, k] - model.shape_center[j, k]
-        d2 += dx * dx
-    sign = 1.0 if model.shape_kind[j] == 0 else -1.0  # SPHERE: |x-c| - R; BOWL: R - |x-c|
-    return sign * (np.sqrt(d2) - model.shape_radius[j]) - model.radii[i]
+        return pair_gap(b, i, j, x, model, D)
+    return terrain_gap(b, i, j, x, model, D)
 
 
 @njit
@@ -168,7 +163,7 @@ def _gap_rate(kind, b, i, j, x, v, model, D):
         dx = x[b, i, k] - model.shape_center[j, k]
         d2 += dx * dx
     dist = np.sqrt(d2)
-    sign = 1.0 if model.shape_kind[j] == 0 else -1.0
+    sign = shape_sign(model, j)
     if dist > 0.0:
         for k in range(D):
             rate += (x[b, i, k] - model.shape_center[j, k]) * v[b, i, k]
@@ -196,7 +191,7 @@ def _interp_gap(kind, b, i, j, x0, v0, x1, v1, h, t, model, D):
     for k in range(D):
         pi = _hermite(x0[b, i, k], v0[b, i, k], x1[b, i, k], v1[b, i, k], h, t) - model.shape_center[j, k]
         d2 += pi * pi
-    sign = 1.0 if model.shape_kind[j] == 0 else -1.0
+    sign = shape_sign(model, j)
     return sign * (np.sqrt(d2) - model.shape_radius[j]) - model.radii[i]
 
 
@@ -366,9 +361,9 @@ def _grid_pass(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev, best, count):
             dx = x1[b, i, k] - x0[b, i, k]
             d2 += dx * dx
         disp2 = max(disp2, d2)
-    K.build_grid(b, x1, grid, _CellSize(model.cell_size + 2.0 * np.sqrt(disp2)), g)
+    build_grid(b, x1, grid, _CellSize(model.cell_size + 2.0 * np.sqrt(disp2)), g)
     for i in range(n):
-        x0_, x1_, y0, y1, z0, z1, nx, ny = K._neighbour_rows(b, i, x1, grid, D)
+        x0_, x1_, y0, y1, z0, z1, nx, ny = neighbour_rows(b, i, x1, grid, D)
         for qz in range(z0, z1):
             for qy in range(y0, y1):
                 row = (qz * ny + qy) * nx
@@ -402,17 +397,8 @@ def scan(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev):
     for i in range(n):
         r = model.radii[i]
         for s in range(model.shape_kind.shape[0]):
-            sign = 1.0 if model.shape_kind[s] == 0 else -1.0
-            R = model.shape_radius[s]
-            a0 = 0.0
-            a1 = 0.0
-            for k in range(D):
-                e0 = x0[b, i, k] - model.shape_center[s, k]
-                e1 = x1[b, i, k] - model.shape_center[s, k]
-                a0 += e0 * e0
-                a1 += e1 * e1
-            g0 = sign * (np.sqrt(a0) - R) - r
-            g1 = sign * (np.sqrt(a1) - R) - r
+            g0 = terrain_gap(b, i, s, x0, model, D)
+            g1 = terrain_gap(b, i, s, x1, model, D)
             if (g0 < 0.0) == (g1 < 0.0) and not (rk4 and abs(g1) < NEAR * r) and not abs(g0) <= START_ZONE * r:
                 continue
             best, flagged = _consider(KIND_TERRAIN, b, i, s, g0, g1, x0, v0, x1, v1, h, rk4, model, D, ev, best)
@@ -645,80 +631,85 @@ def after_cross(b, dt, x, v, ev, a0, a0_valid, model, g):
 
 
 # --------------------------------------------------------------------------------------------
-# Drivers: one per integrator (a user compiles only the one used), worlds b0..b1-1, serial
+# The driver (any integrator: its work buffers select the step, as in ``integrators.run_worlds``)
 # --------------------------------------------------------------------------------------------
 
 
-@njit(nogil=True)
-def run_symplectic_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, ev, status):
-    for b in range(b0, b1):
-        ok = True
-        for _ in range(nsteps):
-            begin_step(b, dt, x, v, ev, None, None)
-            while True:
-                ok = K.symplectic_euler_step(b, ev.flts[b, F_TAU], x, v, work, ext, grid, model, friction, g)
-                ev.counts[b, C_CALLS] += 1
-                ev.counts[b, C_EVALS] += 1
-                if not ok:
-                    break
-                act = decide(b, dt, x, v, False, grid, model, g, ev, None, None)
-                if act == ACT_CROSS:
-                    ok = K.symplectic_euler_step(b, ev.flts[b, F_DELTA], x, v, work, ext, grid, model, friction, g)
-                    ev.counts[b, C_EVALS] += 1
-                    if not ok:
-                        break
-                    act = after_cross(b, dt, x, v, ev, None, None, model, g)
-                if act == ACT_DONE:
-                    break
-            if not ok:
-                break
-        status[b] = K._final_status(b, ok, x, v, g)
+def cached_acceleration(work):
+    """(a0, a0_valid) of velocity Verlet's cache, saved and restored with the state; (None, None)
+    for the other integrators (jitted code only)."""
+    raise NotImplementedError("cached_acceleration is called from jitted code")
+
+
+@overload(cached_acceleration, inline="always")
+def _cached_acceleration(work):
+    if _is(work, VelocityVerletWork):
+        return lambda work: (work.a0, work.a0_valid)
+    return lambda work: (None, None)
+
+
+def forget_cache(work, b):
+    """After the crossing step: velocity Verlet's cache belongs to the state before it."""
+    raise NotImplementedError("forget_cache is called from jitted code")
+
+
+@overload(forget_cache, inline="always")
+def _forget_cache(work, b):
+    if _is(work, VelocityVerletWork):
+        def impl(work, b):
+            work.a0_valid[b] = False
+        return impl
+    return lambda work, b: None
+
+
+def evaluations(work, b):
+    """Full contact passes the next step of world b costs (counted before it is taken)."""
+    raise NotImplementedError("evaluations is called from jitted code")
+
+
+@overload(evaluations, inline="always")
+def _evaluations(work, b):
+    if _is(work, VelocityVerletWork):
+        return lambda work, b: 1 if work.a0_valid[b] else 2
+    if _is(work, RK4Work):
+        return lambda work, b: 4
+    return lambda work, b: 1
+
+
+def is_rk4(work):
+    """True for RK4, whose look-ahead fourth stage needs a landing margin."""
+    raise NotImplementedError("is_rk4 is called from jitted code")
+
+
+@overload(is_rk4, inline="always")
+def _is_rk4(work):
+    if _is(work, RK4Work):
+        return lambda work: True
+    return lambda work: False
 
 
 @njit(nogil=True)
-def run_explicit_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, ev, status):
+def run_worlds(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, ev, status):
+    """Event-located stepping of worlds b0..b1-1 (serial, as ``integrators.run_worlds``)."""
+    a0, a0_valid = cached_acceleration(work)
+    rk4 = is_rk4(work)
     for b in range(b0, b1):
-        ok = True
-        for _ in range(nsteps):
-            begin_step(b, dt, x, v, ev, None, None)
-            while True:
-                ok = K.explicit_euler_step(b, ev.flts[b, F_TAU], x, v, work, ext, grid, model, friction, g)
-                ev.counts[b, C_CALLS] += 1
-                ev.counts[b, C_EVALS] += 1
-                if not ok:
-                    break
-                act = decide(b, dt, x, v, False, grid, model, g, ev, None, None)
-                if act == ACT_CROSS:
-                    ok = K.symplectic_euler_step(b, ev.flts[b, F_DELTA], x, v, work, ext, grid, model, friction, g)
-                    ev.counts[b, C_EVALS] += 1
-                    if not ok:
-                        break
-                    act = after_cross(b, dt, x, v, ev, None, None, model, g)
-                if act == ACT_DONE:
-                    break
-            if not ok:
-                break
-        status[b] = K._final_status(b, ok, x, v, g)
-
-
-@njit(nogil=True)
-def run_velocity_verlet(b0, b1, nsteps, dt, x, v, work, a0_valid, ext, grid, model, friction, g, ev, status):
-    a0 = work[1]  # the step function's cached acceleration: saved and restored with the state
-    for b in range(b0, b1):
+        begin_world(work, b)
         ok = True
         for _ in range(nsteps):
             begin_step(b, dt, x, v, ev, a0, a0_valid)
             while True:
-                ev.counts[b, C_EVALS] += 1 if a0_valid[b] else 2
-                ok = K.velocity_verlet_step(b, ev.flts[b, F_TAU], x, v, work, a0_valid, ext, grid, model, friction, g)
+                evals = evaluations(work, b)
+                ok = integrate(work, b, ev.flts[b, F_TAU], x, v, ext, grid, model, friction, g)
                 ev.counts[b, C_CALLS] += 1
+                ev.counts[b, C_EVALS] += evals
                 if not ok:
                     break
-                act = decide(b, dt, x, v, False, grid, model, g, ev, a0, a0_valid)
+                act = decide(b, dt, x, v, rk4, grid, model, g, ev, a0, a0_valid)
                 if act == ACT_CROSS:
-                    ok = K.symplectic_euler_step(b, ev.flts[b, F_DELTA], x, v, work, ext, grid, model, friction, g)
+                    ok = symplectic_euler_into(work[0], b, ev.flts[b, F_DELTA], x, v, ext, grid, model, friction, g)
                     ev.counts[b, C_EVALS] += 1
-                    a0_valid[b] = False  # the cache belongs to the state before the crossing
+                    forget_cache(work, b)
                     if not ok:
                         break
                     act = after_cross(b, dt, x, v, ev, a0, a0_valid, model, g)
@@ -726,76 +717,4 @@ def run_velocity_verlet(b0, b1, nsteps, dt, x, v, work, a0_valid, ext, grid, mod
                     break
             if not ok:
                 break
-        status[b] = K._final_status(b, ok, x, v, g)
-
-
-@njit(nogil=True)
-def run_rk4(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, ev, status):
-    for b in range(b0, b1):
-        ok = True
-        for _ in range(nsteps):
-            begin_step(b, dt, x, v, ev, None, None)
-            while True:
-                ok = K.rk4_step(b, ev.flts[b, F_TAU], x, v, work, ext, grid, model, friction, g)
-                ev.counts[b, C_CALLS] += 1
-                ev.counts[b, C_EVALS] += 4
-                if not ok:
-                    break
-                act = decide(b, dt, x, v, True, grid, model, g, ev, None, None)
-                if act == ACT_CROSS:
-                    ok = K.symplectic_euler_step(b, ev.flts[b, F_DELTA], x, v, work, ext, grid, model, friction, g)
-                    ev.counts[b, C_EVALS] += 1
-                    if not ok:
-                        break
-                    act = after_cross(b, dt, x, v, ev, None, None, model, g)
-                if act == ACT_DONE:
-                    break
-            if not ok:
-                break
-        status[b] = K._final_status(b, ok, x, v, g)
-
-
-@njit(nogil=True)
-def run_implicit_euler(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, cg_tol, cg_max_iter,
-                       ev, status):
-    for b in range(b0, b1):
-        ok = True
-        all_converged = True
-        for _ in range(nsteps):
-            begin_step(b, dt, x, v, ev, None, None)
-            while True:
-                ok, converged = K.implicit_euler_step(b, ev.flts[b, F_TAU], x, v, work, ext, grid, model, friction,
-                                                      g, cg_tol, cg_max_iter)
-                all_converged = all_converged and converged
-                ev.counts[b, C_CALLS] += 1
-                ev.counts[b, C_EVALS] += 1
-                if not ok:
-                    break
-                act = decide(b, dt, x, v, False, grid, model, g, ev, None, None)
-                if act == ACT_CROSS:
-                    ok = K.symplectic_euler_step(b, ev.flts[b, F_DELTA], x, v, work, ext, grid, model, friction, g)
-                    ev.counts[b, C_EVALS] += 1
-                    if not ok:
-                        break
-                    act = after_cross(b, dt, x, v, ev, None, None, model, g)
-                if act == ACT_DONE:
-                    break
-            if not ok:
-                break
-        st = K._final_status(b, ok, x, v, g)
-        status[b] = K.STATUS_CG if st == K.STATUS_OK and not all_converged else st
-
-
-_RUNNERS = {
-    K.EXPLICIT_EULER: run_explicit_euler,
-    K.SYMPLECTIC_EULER: run_symplectic_euler,
-    K.VELOCITY_VERLET: run_velocity_verlet,
-    K.RK4: run_rk4,
-    K.IMPLICIT_EULER: run_implicit_euler,
-}
-
-
-def run(world, n: int, ext) -> None:
-    """Advance every world of ``world`` (a :class:`World` made with ``events=True``) by n steps,
-    spreading world ranges over threads as ``World`` does."""
-    world._run_worlds(n, ext, _RUNNERS, (world._events,))
+        status[b] = world_status(work, b, ok, x, v, g)

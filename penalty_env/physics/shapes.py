@@ -7,9 +7,12 @@ shape's centre) we return the last axis ("up"), which keeps every kernel finite.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
+
+from .. import _validate as V
 
 __all__ = ["Shape", "Sphere", "Bowl", "SPHERE", "BOWL", "pack_terrain"]
 
@@ -35,14 +38,12 @@ class Shape:
     sign = 0.0  # phi = sign * (|x - c| - R)
 
     def __post_init__(self) -> None:
-        c = tuple(float(x) for x in np.asarray(self.center, dtype=np.float64).reshape(-1))
+        c = tuple(float(x) for x in V.real_array("center", self.center, finite=False).reshape(-1))
         if len(c) not in (2, 3):
             raise ValueError(f"center must have 2 or 3 coordinates, got {len(c)}")
         if not all(math.isfinite(x) for x in c):
             raise ValueError(f"center must be finite, got {c}")
-        r = float(self.radius)
-        if not (math.isfinite(r) and r > 0.0):
-            raise ValueError(f"radius must be a finite number > 0, got {self.radius!r}")
+        r = V.positive("radius", self.radius)
         object.__setattr__(self, "center", c)
         object.__setattr__(self, "radius", r)
 
@@ -101,7 +102,7 @@ class Bowl(Shape):
     sign = -1.0
 
 
-def pack_terrain(terrain, d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pack_terrain(terrain: Iterable[Shape] | None, d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Kernel arrays (kind (S,), center (S, d), radius (S,)) for a sequence of shapes."""
     shapes = tuple(terrain) if terrain is not None else ()
     for k, s in enumerate(shapes):

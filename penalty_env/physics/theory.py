@@ -2,7 +2,7 @@
 
 Units are whatever the caller uses consistently (SI in the examples): ``ks`` force per length,
 ``kd`` force per speed, ``m_eff`` mass. ``m_eff = m_i m_j / (m_i + m_j)`` for a pair of balls and
-``m_eff = m_i`` for a ball against static terrain (PHYSICS.md section 3).
+``m_eff = m_i`` for a ball against static terrain (docs/physics.md section 3).
 
 The contact is the seed's: the spring and the dashpot act while the overlap is positive and the
 contact ends when the overlap returns to zero, so for ``zeta >= 1`` it never ends (``e = 0``).
@@ -11,11 +11,23 @@ contact ends when the overlap returns to zero, so for ``zeta >= 1`` it never end
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
+from .._validate import non_negative as _non_negative
+from .._validate import positive as _positive
+
 __all__ = [
     "INTEGRATORS",
+    "DAMPING_MODES",
+    "effective_mass",
+    "ContactResponse",
+    "contact_response",
+    "restitution_for_zeta",
+    "zeta_for_restitution",
+    "peak_overlap_ratio",
     "natural_frequency",
     "damping_ratio",
     "restitution",
@@ -30,20 +42,12 @@ __all__ = [
 ]
 
 INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
+DAMPING_MODES = ("linear", "no_tension")
 
 
-def _positive(name: str, value: float) -> float:
-    value = float(value)
-    if not (math.isfinite(value) and value > 0.0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return value
-
-
-def _non_negative(name: str, value: float) -> float:
-    value = float(value)
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    return value
+def effective_mass(m_i: float, m_j: float) -> float:
+    """m_eff = m_i m_j / (m_i + m_j) of a pair (a ball against static terrain: m_eff = m_i)."""
+    return m_i * m_j / (m_i + m_j)
 
 
 def natural_frequency(ks: float, m_eff: float) -> float:
@@ -58,10 +62,7 @@ def damping_ratio(ks: float, kd: float, m_eff: float) -> float:
 
 def restitution(ks: float, kd: float, m_eff: float) -> float:
     """Normal coefficient of restitution e = exp(-pi zeta / sqrt(1 - zeta^2)) (0 when zeta >= 1)."""
-    zeta = damping_ratio(ks, kd, m_eff)
-    if zeta >= 1.0:
-        return 0.0
-    return math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta * zeta))
+    return restitution_for_zeta(damping_ratio(ks, kd, m_eff))
 
 
 def contact_time(ks: float, kd: float, m_eff: float) -> float:
@@ -77,11 +78,7 @@ def damping_for_restitution(e: float, ks: float, m_eff: float) -> float:
 
     Same as LIGGGHTS' gamma_n = sqrt(4 m_eff k_n / (1 + (pi / ln e)^2)).
     """
-    e = float(e)
-    if not (math.isfinite(e) and 0.0 < e <= 1.0):
-        raise ValueError(f"e (restitution) must be in (0, 1], got {e!r}")
-    log_e = math.log(e)
-    zeta = -log_e / math.sqrt(math.pi**2 + log_e**2)
+    zeta = zeta_for_restitution(e)
     return 2.0 * zeta * math.sqrt(_positive("ks", ks) * _positive("m_eff", m_eff))
 
 
@@ -98,6 +95,146 @@ def resting_overlap(m: float, g: float, ks: float) -> float:
 def stiffness_for_penetration(m_eff: float, v: float, delta_tol: float) -> float:
     """Smallest ks that keeps the overlap of an impact at speed v under delta_tol: m v^2 / delta^2."""
     return _positive("m_eff", m_eff) * float(v) ** 2 / _positive("delta_tol", delta_tol) ** 2
+
+
+# --- the exact solution of one contact, either damping mode, optional gravity --------------------
+# (the oracle of the accuracy benchmark, of configure and of the tests)
+
+
+@dataclass(frozen=True)
+class ContactResponse:
+    """One contact hit at normal speed v (units: omega0 = 1, v = 1).
+
+    restitution: exit speed / impact speed; duration: omega0 x the time from first touch to the
+    overlap's return to zero; peak_overlap: omega0 / v x the largest overlap.
+    """
+
+    restitution: float
+    duration: float
+    peak_overlap: float
+
+
+def _first_root(f: Callable[[np.ndarray], np.ndarray], t_max: float, n: int = 4000) -> float:
+    """First t in (0, t_max] where f changes sign (from its sign just after 0), to machine precision."""
+    ts = np.linspace(0.0, t_max, n + 1)[1:]
+    vals = f(ts)
+    s0 = np.sign(vals[0])
+    idx = np.flatnonzero(np.sign(vals) != s0)
+    if idx.size == 0:
+        return math.inf
+    k = int(idx[0])
+    lo = ts[k - 1] if k > 0 else 0.5 * ts[0]
+    hi = ts[k]
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if np.sign(f(np.array([mid]))[0]) == s0:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 4e-16 * hi:
+            break
+    return 0.5 * (lo + hi)
+
+
+def contact_response(zeta: float, damping: str = "linear", gravity_ratio: float = 0.0) -> ContactResponse:
+    """Exact solution of delta'' + 2 zeta delta' + delta = gamma, delta(0) = 0, delta'(0) = 1
+    (overlap delta in units of v / omega0, time in 1 / omega0; gamma = g / (omega0 v) is gravity
+    pressing into the contact, 0 for a collision in free space).
+
+    ``linear``: the contact lasts until the overlap returns to zero (the seed's law).
+    ``no_tension``: the force ks delta + kd delta' is clipped at zero, so the contact stops pushing
+    when ks delta + kd delta' = 0 and the bodies then fly apart (under gravity) until the overlap is zero.
+    Raises ValueError if the contact never ends (zeta >= 1 for the linear law, or gravity too strong).
+    """
+    if damping not in DAMPING_MODES:
+        raise ValueError(f"damping must be one of {DAMPING_MODES}, got {damping!r}")
+    zeta = float(zeta)
+    gamma = float(gravity_ratio)
+    if not (0.0 <= zeta < 1.0):
+        raise ValueError(f"zeta must be in [0, 1) for a contact that ends, got {zeta!r}")
+    wd = math.sqrt(1.0 - zeta * zeta)
+    A = -gamma
+    Bc = (1.0 + zeta * A) / wd
+    D = -zeta * Bc - wd * A
+
+    def delta(t: np.ndarray) -> np.ndarray:
+        return gamma + np.exp(-zeta * t) * (A * np.cos(wd * t) + Bc * np.sin(wd * t))
+
+    def ddelta(t: np.ndarray) -> np.ndarray:
+        return np.exp(-zeta * t) * (np.cos(wd * t) + D * np.sin(wd * t))
+
+    t_max = 2.0 * math.pi / wd
+    t_peak = _first_root(ddelta, t_max)
+    peak = float(delta(np.array([t_peak]))[0])
+    if damping == "linear" or zeta == 0.0:
+        # delta starts at 0 and grows: look for its return through zero after the peak
+        t_end = t_peak + _first_root(lambda t: delta(t + t_peak), t_max)
+        if not math.isfinite(t_end):
+            raise ValueError("the contact never ends (gravity holds the ball in contact)")
+        exit_speed = -float(ddelta(np.array([t_end]))[0])
+        return ContactResponse(exit_speed, t_end, peak)
+    # no tension: contact force ks delta + kd delta' (units m omega0^2) hits zero first
+    t_clip = _first_root(lambda t: delta(t) + 2.0 * zeta * ddelta(t), t_max)
+    if not math.isfinite(t_clip):
+        raise ValueError("the contact never ends (gravity holds the ball in contact)")
+    d1 = float(delta(np.array([t_clip]))[0])
+    v1 = float(ddelta(np.array([t_clip]))[0])  # < 0: separating
+    disc = v1 * v1 - 2.0 * gamma * d1
+    if v1 >= 0.0 or disc < 0.0:
+        raise ValueError("the contact never ends (gravity pulls the ball back before it leaves)")
+    exit_speed = math.sqrt(disc)
+    flight = (d1 / -v1) if gamma == 0.0 else (-v1 - exit_speed) / gamma
+    return ContactResponse(exit_speed, t_clip + flight, peak)
+
+
+def peak_overlap_ratio(zeta: float, gravity_ratio: float = 0.0) -> float:
+    """Largest overlap of a contact hit at speed v, in units of v / omega0 (1 when undamped without
+    gravity; either damping mode: the no-tension clip acts only after the peak)."""
+    zeta = float(zeta)
+    gamma = float(gravity_ratio)
+    if not (0.0 <= zeta < 1.0):
+        raise ValueError(f"zeta must be in [0, 1), got {zeta!r}")
+    wd = math.sqrt(1.0 - zeta * zeta)
+    A = -gamma
+    Bc = (1.0 + zeta * A) / wd
+    D = -zeta * Bc - wd * A
+    t_peak = _first_root(lambda t: np.exp(-zeta * t) * (np.cos(wd * t) + D * np.sin(wd * t)), 2.0 * math.pi / wd)
+    return float(gamma + math.exp(-zeta * t_peak) * (A * math.cos(wd * t_peak) + Bc * math.sin(wd * t_peak)))
+
+
+def restitution_for_zeta(zeta: float, damping: str = "linear") -> float:
+    """Coefficient of restitution of a contact of damping ratio zeta (no gravity)."""
+    if damping == "linear":
+        if zeta >= 1.0:
+            return 0.0
+        return math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta * zeta))
+    return contact_response(zeta, damping).restitution
+
+
+def zeta_for_restitution(e: float, damping: str = "linear") -> float:
+    """The damping ratio that gives restitution e in (0, 1] (inverse of :func:`restitution_for_zeta`)."""
+    e = float(e)
+    if not (math.isfinite(e) and 0.0 < e <= 1.0):
+        raise ValueError(f"restitution must be in (0, 1], got {e!r}")
+    log_e = math.log(e)
+    z_lin = -log_e / math.sqrt(math.pi**2 + log_e**2)
+    if damping == "linear" or e == 1.0:
+        return z_lin
+    if damping not in DAMPING_MODES:
+        raise ValueError(f"damping must be one of {DAMPING_MODES}, got {damping!r}")
+    # no tension ends the contact earlier, so it needs more damping for the same e; e(zeta) is
+    # decreasing: bisect on [0, 0.999]
+    lo, hi = 0.0, 0.999
+    if restitution_for_zeta(hi, damping) > e:
+        raise ValueError(f"restitution {e} is below what the no-tension law can reach with zeta < 1")
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if restitution_for_zeta(mid, damping) > e:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
 
 
 # --- stability -------------------------------------------------------------------------------
@@ -147,7 +284,7 @@ _CRIT_CACHE: dict[tuple[str, float], float] = {}
 def critical_omega_dt(integrator: str, zeta: float = 0.0) -> float:
     """Largest omega*dt for which ``integrator`` is stable on a contact of damping ratio ``zeta``.
 
-    Closed forms (PHYSICS.md section 4): explicit Euler 2 zeta (0: never stable); symplectic Euler
+    Closed forms (docs/physics.md section 4): explicit Euler 2 zeta (0: never stable); symplectic Euler
     2 (sqrt(1 + zeta^2) - zeta); velocity Verlet 2 when undamped; RK4 2 sqrt(2) when undamped;
     implicit Euler inf. Damped Verlet and RK4 come from the amplification matrix.
     """
@@ -216,3 +353,143 @@ def guard_omega_dt(integrator: str, zeta: float = 0.0) -> float:
 def guard_dt(integrator: str, ks: float, kd: float, m_eff: float) -> float:
     """Largest dt the stability guard accepts for one contact (see ``guard_omega_dt``)."""
     return guard_omega_dt(integrator, damping_ratio(ks, kd, m_eff)) / natural_frequency(ks, m_eff)
+
+
+# --- energy per collision (the guard's energy budget) ------------------------------------------
+# Symplectic Euler and velocity Verlet are symplectic only for a smooth force. A contact switch (the
+# spring's kink where a contact begins and ends) leaves an energy error that depends on where in
+# its step the switch falls, and its mean over that phase is not zero: each elastic collision gains
+# energy on average, and many of them heat a scene at a step the stability limit allows
+# (docs/physics.md section 6). The mean is a property of the method, omega0 dt, zeta and the damping
+# mode: ``energy_gain_per_collision`` computes it from the methods' own one-step maps, applied to a
+# ball hitting a wall (one contact, normal motion), and ``energy_omega_dt`` finds the largest
+# omega0 dt whose mean gain stays within ENERGY_BUDGET.
+
+ENERGY_BUDGET = 1e-5  # mean relative energy gain per collision: 1% per 1,000 collisions
+ENERGY_PHASES = 512  # phases of the switch within the step that the mean is taken over
+
+
+def _collision_gains(integrator: str, h: np.ndarray, c: float, clip: bool, phases: int) -> np.ndarray:
+    """e_num^2 - 1 of a ball hitting a wall head on, shape (len(h), phases): every omega0 dt in ``h``
+    (units omega0 = 1, approach speed 1, 2 zeta = c) at every phase of the contact's start within
+    the step; inf where the contact never ended."""
+    h = np.asarray(h, dtype=np.float64)[:, None]
+    ph = (np.arange(phases) + 0.5) / phases
+    q = h * ph[None, :]  # the gap (< 0 in contact)
+    u = -np.ones_like(q)
+
+    def acc(q: np.ndarray, u: np.ndarray) -> np.ndarray:
+        f = -q - c * u
+        if clip:
+            f = np.maximum(f, 0.0)
+        return np.where(q < 0.0, f, 0.0)
+
+    a0 = acc(q, u)
+    touched = np.zeros(q.shape, dtype=bool)
+    clear = np.zeros(q.shape, dtype=np.int64)  # steps since the contact ended
+    for _ in range(int(4.0 * math.pi / float(h.min())) + 20):
+        if integrator == "symplectic_euler":
+            u = u + h * acc(q, u)
+            q = q + h * u
+        elif integrator == "explicit_euler":
+            a = acc(q, u)
+            q = q + h * u
+            u = u + h * a
+        elif integrator == "velocity_verlet":
+            q1 = q + h * u + 0.5 * h * h * a0
+            a1 = acc(q1, u + h * a0)
+            u = u + 0.5 * h * (a0 + a1)
+            q, a0 = q1, a1
+        elif integrator == "rk4":
+            k1q, k1u = u, acc(q, u)
+            k2q, k2u = u + 0.5 * h * k1u, acc(q + 0.5 * h * k1q, u + 0.5 * h * k1u)
+            k3q, k3u = u + 0.5 * h * k2u, acc(q + 0.5 * h * k2q, u + 0.5 * h * k2u)
+            k4q, k4u = u + h * k3u, acc(q + h * k3q, u + h * k3u)
+            q = q + h / 6.0 * (k1q + 2.0 * k2q + 2.0 * k3q + k4q)
+            u = u + h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u)
+        else:  # implicit Euler, linearised about the contact set at the start of the step
+            u = np.where(q < 0.0, (u - h * q) / (1.0 + h * c + h * h), u)
+            q = q + h * u
+        touched |= q < 0.0
+        clear = np.where(touched & (q >= 0.0), clear + 1, 0)
+        if np.all(clear >= 2):
+            break
+    with np.errstate(over="ignore", invalid="ignore"):
+        gain = u * u - 1.0
+    return np.where((clear >= 2) & np.isfinite(gain), gain, np.inf)
+
+
+def energy_gain_per_collision(integrator: str, omega_dt: float, zeta: float = 0.0, damping: str = "linear",
+                              phases: int = ENERGY_PHASES) -> tuple[float, float]:
+    """(mean, standard deviation) over where the contact starts within the step of e_num^2 - 1:
+    the relative change of the normal kinetic energy over one collision of a linear spring-dashpot
+    contact, integrated by ``integrator`` at ``omega_dt`` (0 for the exact elastic contact; about
+    e^2 - 1 < 0 with damping; inf if the contact never ends). Each method is applied exactly as the
+    World applies it (the dashpot explicit, velocity Verlet's at the predicted velocity, implicit
+    Euler's contact set frozen at the start of the step), to a ball hitting a wall head on, gravity
+    off. The mean oscillates with omega_dt (it nearly vanishes where a contact lasts a whole number
+    of steps) under an envelope that grows about as omega_dt^4 for symplectic Euler and Verlet."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
+    if damping not in DAMPING_MODES:
+        raise ValueError(f"damping must be one of {DAMPING_MODES}, got {damping!r}")
+    h = _positive("omega_dt", omega_dt)
+    c = 2.0 * _non_negative("zeta", zeta)
+    gain = _collision_gains(integrator, np.array([h]), c, damping == "no_tension", phases)[0]
+    if not np.all(np.isfinite(gain)):
+        return math.inf, math.inf
+    return float(gain.mean()), float(gain.std())
+
+
+_ENERGY_CACHE: dict[tuple[str, float, str, float], float] = {}
+
+
+def _energy_scan(integrator: str, top: float, zeta: float, damping: str) -> tuple[np.ndarray, np.ndarray]:
+    """The omega0 dt of the scan up to ``top`` and the mean gain per collision at each."""
+    lo, factor, phases = ENERGY_SCAN
+    grid = lo * factor ** np.arange(int(math.ceil(math.log(max(top, lo) / lo) / math.log(factor))) + 1)
+    grid = np.append(grid[grid < top], top)
+    return grid, _collision_gains(integrator, grid, 2.0 * zeta, damping == "no_tension", phases).mean(axis=1)
+
+
+def energy_gain_envelope(integrator: str, omega_dt: float, zeta: float = 0.0, damping: str = "linear") -> float:
+    """The largest mean gain per collision at any omega0 dt of the scan up to ``omega_dt``: what a
+    scene whose contacts differ in length can expect at that step (the mean itself dips where a
+    contact lasts a whole number of steps)."""
+    _, gains = _energy_scan(integrator, _positive("omega_dt", omega_dt), _non_negative("zeta", zeta), damping)
+    return float(np.max(gains))
+ENERGY_SCAN = (0.05, 1.02, 64)  # omega0 dt scanned from this value (a mean gain ~1e-7), by this factor, over these phases
+
+
+def energy_omega_dt(integrator: str, zeta: float = 0.0, damping: str = "linear",
+                    budget: float = ENERGY_BUDGET) -> float:
+    """Largest omega0 dt, up to the stability guard's, below which no collision gains more than
+    ``budget`` of its energy on average (``energy_gain_per_collision``, taken at every omega0 dt of
+    a fine scan from below: the mean dips where a contact lasts a whole number of steps, and a scene
+    whose contacts differ in length must not rely on a dip); 0 where none qualifies (explicit Euler
+    without damping gains at any dt)."""
+    zeta = _non_negative("zeta", zeta)
+    key = (integrator, round(zeta, 9), damping, budget)
+    if key in _ENERGY_CACHE:
+        return _ENERGY_CACHE[key]
+    top = guard_omega_dt(integrator, zeta)
+    unbounded = not math.isfinite(top)  # implicit Euler: stable at any dt
+    if unbounded:
+        top = 10.0
+    if top <= 0.0:
+        _ENERGY_CACHE[key] = 0.0
+        return 0.0
+    grid, gains = _energy_scan(integrator, top, zeta, damping)
+    bad = np.flatnonzero(~(gains <= budget))
+    limit = float(top if bad.size == 0 else (grid[bad[0] - 1] if bad[0] > 0 else 0.0))
+    if unbounded and bad.size == 0:
+        limit = math.inf  # dissipative at every step scanned (it only damps more at larger ones)
+    _ENERGY_CACHE[key] = limit
+    return limit
+
+
+def energy_dt(integrator: str, ks: float, kd: float, m_eff: float, damping: str = "linear",
+              budget: float = ENERGY_BUDGET) -> float:
+    """Largest dt at which a collision of this contact gains at most ``budget`` of its energy on
+    average (``energy_omega_dt``)."""
+    return energy_omega_dt(integrator, damping_ratio(ks, kd, m_eff), damping, budget) / natural_frequency(ks, m_eff)

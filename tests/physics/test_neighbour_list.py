@@ -1,8 +1,8 @@
 """Large worlds (from LARGE_WORLD_MIN_BALLS balls, grid, symplectic or explicit Euler) step through a
 Verlet neighbour list in parallel over balls, with their storage sorted by grid cell: the same
 physics as the serial all-pairs world, to round-off, whatever the storage order, the escapes and
-rebuilds, the list's size or how the steps are split into calls (bit for bit there). Split from
-test_physics_broadphase.py, so that the two compile-heavy halves run on two test workers."""
+rebuilds, the list's size or how the steps are split into calls (bit for bit there). (Batched
+lists: ``test_stepping_paths.py``.)"""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import pytest
 
 from penalty_env.physics import Bowl, Sphere, World
 from penalty_env.physics.world import LARGE_WORLD_MIN_BALLS
+from penalty_env.scenarios import balls_in_bowl
 
 
 def test_large_world_parallel_force_loop_matches_the_serial_all_pairs_world():
@@ -53,9 +54,9 @@ def test_large_world_storage_order_changes_only_round_off():
     steps = 53
     forces = rng.normal(0.0, 1.0, x.shape)
     ref = World(x, radii, masses, v, **kw)
-    assert ref._larges  # the sorted large-world path
+    assert ref.stepping == "neighbour_list"  # the sorted large-world path
     ref.step(steps, forces=forces)
-    assert ref._larges[0][0].state[2] > 2  # the list was rebuilt (and the storage re-sorted) on the way
+    assert ref.neighbour_list_stats()["builds"] > 2  # the list was rebuilt (and the storage re-sorted) on the way
     shuffle = rng.permutation(n)
     mixed = World(x[shuffle], radii[shuffle], masses[shuffle], v[shuffle], **kw)
     mixed.step(steps, forces=forces[shuffle])
@@ -77,19 +78,11 @@ def test_large_world_storage_order_changes_only_round_off():
     np.testing.assert_array_equal(split.velocities, fresh.velocities)
 
 
-def _pile(n, d, seed, radii=None):
-    """n balls settled loosely in a bowl (a few hundred steps), their state and World arguments."""
-    rng = np.random.default_rng(seed)
-    r = 0.05 if radii is None else radii
-    radii = np.full(n, r) if np.isscalar(r) else np.asarray(r)
-    side = math.ceil(n ** (1 / d))
-    cell = 2.05 * radii.max()
-    pts = np.array(np.meshgrid(*[np.arange(side)] * d, indexing="ij")).reshape(d, -1).T[:n] * cell
-    pts = pts - pts.mean(0) + rng.normal(0, 0.002, pts.shape)
-    pts[:, -1] += 0.3 + radii.max()
-    masses = rng.uniform(0.8, 1.2, n)
-    bowl = Bowl((0.0,) * (d - 1) + (1.0,), 1.0)
-    return pts, radii, masses, bowl
+def _pile(n, d, seed, radii=0.05):
+    """n balls on a loose cubic lattice in a bowl (they settle), with their radii, masses and bowl."""
+    x, _, radii, _, bowl = balls_in_bowl(n, d, seed=seed, radius=radii, lattice=True, spacing=0.05 * np.max(radii))
+    masses = np.random.default_rng(seed).uniform(0.8, 1.2, n)
+    return x[0], radii, masses, bowl
 
 
 @pytest.mark.parametrize("d,mu,damping", [(2, 0.0, "linear"), (3, 0.0, "no_tension"), (3, 0.3, "linear")])
@@ -108,18 +101,18 @@ def test_neighbour_list_world_matches_all_pairs_while_balls_escape_and_lists_reb
     worlds = {bp: World(x, radii, masses, v, terrain=bowl, mu=mu, damping=damping, broadphase=bp, **kw)
               for bp in ("all_pairs", "grid")}
     g, a = worlds["grid"], worlds["all_pairs"]
-    assert g._larges, "the neighbour-list path"
+    assert g.stepping == "neighbour_list"
     escaped, contacts = 0, 0
     for _ in range(15):  # (chaos amplifies round-off about 10x per 100 steps here)
         for w in worlds.values():
             w.step(20)
-        escaped = max(escaped, g._larges[0][0].state[3])
+        escaped = max(escaped, g.neighbour_list_stats()["escaped"])
         contacts += g.max_penetration() > 0.0
         np.testing.assert_allclose(g.positions, a.positions, rtol=0, atol=1e-10)
         np.testing.assert_allclose(g.velocities, a.velocities, rtol=0, atol=1e-8)
     assert contacts == 15
     assert escaped > 0, "some balls must have escaped their list"
-    assert g._larges[0][0].state[2] > 1, "the list must have been rebuilt"
+    assert g.neighbour_list_stats()["builds"] > 1, "the list must have been rebuilt"
 
 
 def test_a_ball_listed_far_from_the_terrain_still_bounces_off_it_after_escaping(contact_kwargs):
@@ -143,16 +136,15 @@ def test_a_ball_listed_far_from_the_terrain_still_bounces_off_it_after_escaping(
     g, a = worlds["grid"], worlds["all_pairs"]
     g.step(1)
     a.step(1)
-    lw = g._larges[0][0]
-    slot = int(np.flatnonzero(lw.perm == shot)[0])
-    assert lw.near[slot] == 0 and lw.near.any(), "the shot ball is listed clear of the terrain, some others are not"
+    near = g.neighbour_list_stats()["near_terrain"]
+    assert not near[shot] and near.any(), "the shot ball is listed clear of the terrain, some others are not"
     for _ in range(15):
         for w in worlds.values():
             w.step(10)
         np.testing.assert_allclose(g.positions, a.positions, rtol=0, atol=1e-10)
         np.testing.assert_allclose(g.velocities, a.velocities, rtol=0, atol=1e-8)
     assert a.velocities[shot, 0] < -0.2, "the shot ball bounced back off the Sphere"
-    assert lw.state[2] == 1, "no rebuild: the escaped path alone found the terrain"
+    assert g.neighbour_list_stats()["builds"] == 1, "no rebuild: the escaped path alone found the terrain"
 
 
 def test_a_ball_with_more_neighbours_than_the_list_holds_grows_the_list(contact_kwargs):
@@ -170,46 +162,27 @@ def test_a_ball_with_more_neighbours_than_the_list_holds_grows_the_list(contact_
     bowl = Bowl((0.0, 0.0, 1.0), 1.0)
     worlds = {bp: World(x, radii, masses, terrain=bowl, broadphase=bp, **kw) for bp in ("all_pairs", "grid")}
     g = worlds["grid"]
-    first = g._larges[0][0].nbr.shape[1]
+    first = g.neighbour_list_stats()["capacity"]
     for w in worlds.values():
         w.step(50)
-    assert g._larges[0][0].state[1] > first  # the big ball's neighbours did not fit at first
-    assert g._larges[0][0].nbr.shape[1] > g._larges[0][0].state[1]
+    stats = g.neighbour_list_stats()
+    assert stats["largest"] > first  # the big ball's neighbours did not fit at first
+    assert stats["capacity"] > stats["largest"]
     np.testing.assert_allclose(g.positions, worlds["all_pairs"].positions, rtol=0, atol=1e-10)
 
 
-def test_batched_neighbour_list_worlds_are_bit_identical_to_each_world_alone(contact_kwargs):
-    """Each large world of a batch keeps its own grid, list and storage order."""
-    n = LARGE_WORLD_MIN_BALLS + 8
-    x, radii, masses, bowl = _pile(n, 3, seed=5)
-    kw = contact_kwargs(masses, zeta=0.3)
-    rng = np.random.default_rng(6)
-    xs = x[None] + rng.normal(0.0, 0.003, (3, n, 3))
-    vs = rng.normal(0.0, 0.2, (3, n, 3))
-    batch = World(xs, radii, masses, vs, terrain=bowl, broadphase="grid", **kw)
-    assert len(batch._larges) == 3
-    singles = [World(xs[b], radii, masses, vs[b], terrain=bowl, broadphase="grid", **kw) for b in range(3)]
-    for chunk in (37, 1, 62):
-        batch.step(chunk)
-        for w in singles:
-            w.step(chunk)
-    for b, w in enumerate(singles):
-        np.testing.assert_array_equal(batch.positions[b], w.positions)
-        np.testing.assert_array_equal(batch.velocities[b], w.velocities)
-
-
-def test_state_written_through_kernel_state_is_seen_after_invalidate_cache(contact_kwargs):
-    """Writing positions through ``kernel_state()`` and calling ``invalidate_cache`` restarts a large
+def test_state_written_directly_is_seen_after_invalidate_cache(contact_kwargs):
+    """Writing positions into ``World.state`` and calling ``invalidate_cache`` restarts a large
     world's neighbour list: a contact made by the write is felt at the next step."""
     n = LARGE_WORLD_MIN_BALLS + 8
     x, radii, masses, bowl = _pile(n, 2, seed=9)
     kw = contact_kwargs(masses, zeta=0.3)
     worlds = {bp: World(x, radii, masses, gravity=(0.0, 0.0), broadphase=bp, **kw) for bp in ("all_pairs", "grid")}
-    assert worlds["grid"]._larges
+    assert worlds["grid"].stepping == "neighbour_list"
     for w in worlds.values():
         w.step(1)
-        ks = w.kernel_state()
-        ks.x[0, 1] = ks.x[0, 0] + [0.09, 0.0]  # ball 1 now overlaps ball 0 (radii 0.05)
+        x = w.state.positions
+        x[0, 1] = x[0, 0] + [0.09, 0.0]  # ball 1 now overlaps ball 0 (radii 0.05)
         w.invalidate_cache()
         w.step(1)
     a, g = worlds["all_pairs"], worlds["grid"]

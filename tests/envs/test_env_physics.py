@@ -11,9 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from penalty_env.bench.accuracy import pair_collision
 from penalty_env.envs.scene import PARAMETERS, PenaltyBallsScene
 from penalty_env.physics import configure as CF
+from penalty_env.physics import theory
+from penalty_env.scenarios import pair_collision
 
 
 @pytest.mark.parametrize("accuracy", [0.3, 0.1])
@@ -24,7 +25,7 @@ def test_pusher_ball_impact_meets_the_restitution_accuracy_and_penetration(accur
     r = (p["pusher_radius"], p["ball_radius"])
     # the dashpot gives the impact exactly the target restitution (no-tension closed form)
     zeta = CF.zeta_for_restitution(p["restitution"], "no_tension")
-    m_eff = m[0] * m[1] / (m[0] + m[1])
+    m_eff = theory.effective_mass(m[0], m[1])
     assert scene.kd == pytest.approx(2.0 * zeta * (scene.ks * m_eff) ** 0.5, rel=1e-9)
     res = pair_collision("symplectic_euler", False, "no_tension", None, None, 256, masses=m, radii=r,
                          ks=scene.ks, speed=p["max_speed"], kd=scene.kd, dt=scene.dt)

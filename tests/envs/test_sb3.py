@@ -74,7 +74,7 @@ def test_terminal_observation_is_the_last_observation_before_the_reset():
     venv.reset()
     single.reset(seed=0)
     acts = np.array([[0.5, -0.5], [0.1, 0.2]], np.float32)
-    for t in range(3):
+    for _ in range(3):
         obs, rewards, dones, infos = venv.step(acts)
         last = single.step(acts[0])[0]
     assert dones.all() and rewards.dtype == np.float32

@@ -17,7 +17,7 @@ import pytest
 from gymnasium.error import ResetNeeded
 
 import penalty_env  # noqa: F401  (registers the ids)
-from penalty_env.envs import PenaltyBallsEnv
+from penalty_env.envs import PARAMETERS, PenaltyBallsEnv
 from penalty_env.envs.scripted import ScriptedPusher
 
 IDS = ("PenaltyBalls-v0", "PenaltyBalls2D-v0")
@@ -280,7 +280,7 @@ def test_a_pushed_ball_slides_to_rest_as_coulomb_friction_says():
     v = np.zeros_like(x)
     v[1, 0] = 1.0
     scene.world.set_state(positions=x[None], velocities=v[None], worlds=[0])
-    for k in range(25):  # 1 s
+    for _ in range(25):  # 1 s
         scene.step()
     mu, g = scene.params["friction"], scene.params["gravity"]
     assert np.linalg.norm(scene.world.velocities[0, 1]) < 0.02  # at rest (up to the regularised creep)
@@ -341,4 +341,5 @@ def test_docstring_documents_the_task_in_tables():
     for section in ("## Action Space", "## Observation Space", "## Rewards", "## Starting State",
                     "## Episode End", "## Arguments", "## Version History"):
         assert section in doc
-    assert "| `n_obstacles` | 0 | [0, 8] |" in doc
+    for name, (default, lo, hi, _) in PARAMETERS.items():  # the Arguments table is the checked ranges
+        assert f"| `{name}` | {default} | [{lo}, {hi}] |" in doc, name

@@ -14,9 +14,11 @@ import math
 
 import pytest
 
-from penalty_env.bench.accuracy import SPCS, bowl_drop, pair_collision, resting
 from penalty_env.physics import configure as CF
 from penalty_env.physics import theory
+from penalty_env.scenarios import bowl_drop, pair_collision, resting
+
+SPCS = (2, 4, 8, 16, 32, 64, 128, 256, 512)  # steps per contact of the sweep configure is compared with
 
 PHASES = 1024
 

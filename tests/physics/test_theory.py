@@ -1,4 +1,4 @@
-"""penalty_env.physics.theory against the closed forms of PHYSICS.md sections 3 and 4, and its
+"""penalty_env.physics.theory against the closed forms of docs/physics.md sections 3 and 4, and its
 stability analysis against the integrators as the World actually runs them."""
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ def _rk4_growth(h, zeta):
     independent of theory.amplification_matrix."""
     lam = complex(-zeta, math.sqrt(max(0.0, 1 - zeta**2))) if zeta < 1 else complex(-zeta + math.sqrt(zeta**2 - 1), 0)
     lams = [lam, lam.conjugate()] if zeta < 1 else [lam, complex(-zeta - math.sqrt(zeta**2 - 1), 0)]
-    return max(abs(sum((h * l) ** k / math.factorial(k) for k in range(5))) for l in lams)
+    return max(abs(sum((h * lm) ** k / math.factorial(k) for k in range(5))) for lm in lams)
 
 
 @pytest.mark.parametrize("zeta", [0.1, 0.3, 0.6, 1.0])
@@ -45,7 +45,7 @@ def test_damped_rk4_and_verlet_limits_sit_on_the_boundary_of_stability(zeta):
     assert _rk4_growth(0.999 * h, zeta) <= 1.0 + 1e-9
     assert _rk4_growth(1.001 * h, zeta) > 1.0
     # Verlet with its damping at the predicted velocity: below the undamped 2, falling with zeta.
-    # (PHYSICS.md calls it "similar to symplectic Euler": true for small zeta only, e.g. 0.72 vs
+    # (it is often called "similar to symplectic Euler": true for small zeta only, e.g. 0.72 vs
     # 1.13 at zeta = 0.6; test_physics_stability checks this computed limit on the World.)
     hv = theory.critical_omega_dt("velocity_verlet", zeta)
     assert hv < 2.0

@@ -1,4 +1,4 @@
-"""Stability where the methods fail (PHYSICS.md section 4).
+"""Stability where the methods fail (docs/physics.md section 4).
 
 The probe is a ball on the floor of a bowl under gravity, displaced from its resting overlap
 m g / ks by 5% and released: while it stays in contact it is a linear oscillator of frequency

@@ -1,4 +1,4 @@
-"""Signed distance functions and the sampled implicit-vs-implicit test (PHYSICS.md section 1).
+"""Signed distance functions and the sampled implicit-vs-implicit test (docs/physics.md section 1).
 
 implicit_overlap samples both boundaries, so its depth is the largest penetration -phi_other over
 the samples: never more than the exact depth, and short of it by at most the drop of -phi_other

@@ -12,8 +12,8 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 import penalty_env  # noqa: F401
 from penalty_env.envs import PenaltyBallsVectorEnv
-from penalty_env.envs.scene import _threads
 from penalty_env.envs.scripted import ScriptedPusher
+from penalty_env.physics.runner import split, thread_count
 
 DIM = {"PenaltyBalls-v0": 3, "PenaltyBalls2D-v0": 2}
 
@@ -107,7 +107,8 @@ def test_next_step_autoreset_ignores_the_action_and_returns_the_reset_observatio
 def test_a_large_threaded_batch_gives_each_world_its_single_env_episode():
     n = 300  # enough work to be spread over threads
     envs = gym.make_vec("PenaltyBalls-v0", num_envs=n)
-    assert len(envs.unwrapped.scene._chunks) == _threads()  # one chunk of worlds per thread
+    scene = envs.unwrapped.scene
+    assert len(split(np.arange(n), scene.n_balls * scene.substeps)) == thread_count()  # one chunk per thread
     obs, _ = envs.reset(seed=100)
     acts = np.random.default_rng(5).uniform(-1, 1, (40, n, 2)).astype(np.float32)
     trace = [obs]

@@ -11,7 +11,7 @@ from penalty_env.demo import starter_scene
 from penalty_env.physics import Bowl, World
 
 # --------------------------------------------------------------------------------------------
-# The course's starter scene (PHYSICS.md section 1)
+# The course's starter scene (docs/physics.md section 1)
 # --------------------------------------------------------------------------------------------
 
 

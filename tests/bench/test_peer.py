@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from penalty_env.bench.core import _scene_params, large_world
 from penalty_env.bench.peer_lammps import find_lammps, run_lammps
 from penalty_env.physics import theory
 from penalty_env.physics.world import NEIGHBOUR_SKIN
+from penalty_env.scenarios import large_world, scene_params
 
 LAMMPS = find_lammps()
 pytestmark = pytest.mark.skipif(isinstance(LAMMPS, str), reason=str(LAMMPS))
@@ -19,10 +19,10 @@ pytestmark = pytest.mark.skipif(isinstance(LAMMPS, str), reason=str(LAMMPS))
 def test_lammps_collisions_return_the_closed_form_restitution():
     """The benchmark's contact model as LAMMPS gets it (gamma_n = kd / m_eff: m / 2 between two
     balls, m at the Bowl's wall): a head-on pair and a ball flying radially into the wall, gravity
-    off, 200 steps per contact, come back with the closed-form restitution of PHYSICS.md section 3
+    off, 200 steps per contact, come back with the closed-form restitution of docs/physics.md section 3
     for their m_eff, to 1% (a factor 2 in gamma_n would move e by a factor of about 1.5 or more)."""
     r, m, u, R = 0.5, 1.0, 1.0, 20.0
-    ks, kd = _scene_params(r, m)
+    ks, kd = scene_params(r, m)
     x = np.array([[-0.51, 0.0, 0.0], [0.51, 0.0, 0.0], [0.0, R - r - 0.01, 0.0]])
     v = np.array([[u / 2, 0.0, 0.0], [-u / 2, 0.0, 0.0], [0.0, u, 0.0]])
     dt = theory.contact_time(ks, kd, m / 2) / 200

@@ -1,0 +1,246 @@
+"""The env's jitted step: action to motor force, physics substeps, observation and reward, fused.
+
+One call advances the worlds listed in ``worlds`` by one control period. The physics is the core's
+own symplectic Euler step in its SIMD-across-worlds form (:mod:`..physics.lanes`: a block of worlds
+per vector instruction, bit-identical world by world to the scalar step), so a world's trajectory
+does not depend on which env (single, vector, SB3) steps it or on how many worlds share the batch.
+Everything else a step needs (the motor force, the observation, the reward terms, the penetration
+diagnostic) happens in the same call, so Python touches a batch once per step, and nothing is
+allocated.
+
+The data protocol between the scene and this kernel is named: :class:`TaskParams` (the task's
+constants) and :class:`StepBuffers` (what a step writes, one entry per world). Ball order in every
+world: 0 the pusher, 1 the ball, 2.. the obstacles. The last axis is "up"; the others are
+horizontal.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .._jit import njit
+from ..physics import lanes as L
+from ..physics.broadphase import contacts
+from ..physics.contact import MAXPEN
+from .observation import GOAL, POSITION, VELOCITY
+
+__all__ = ["TaskParams", "StepBuffers", "INFO_KEYS", "new_buffers", "step_worlds", "first_bad_action",
+           "OK"]
+
+# the info dict's keys, in order (every key a StepBuffers field of that name; is_success <- success)
+INFO_KEYS = ("reward_goal", "reward_reach", "reward_success", "distance", "pusher_distance", "max_overlap",
+             "is_success")
+_FLOAT_INFO = INFO_KEYS[:-1]
+
+# return code of ``step_worlds`` when every action was finite (the number of blown-up worlds is
+# added: > 0 means some world's state became NaN or inf, flagged in ``status``); a value < 0 is
+# -(1 + b) for the first world b whose action is NaN or inf (nothing was stepped)
+OK = 0
+
+
+class TaskParams(NamedTuple):
+    """The task's constants (SI units)."""
+
+    max_force: float  # motor stall force, N
+    max_speed: float  # motor no-load speed, m/s
+    w_goal: float  # reward per metre the ball gets closer to the goal
+    w_reach: float  # reward per metre the pusher gets closer to the push point
+    success_bonus: float
+    goal_tolerance: float  # success radius, m
+    push_offset: float  # pusher radius + ball radius: the push point's distance behind the ball
+
+
+class StepBuffers(NamedTuple):
+    """What a step writes, per world: the observation, the reward and its terms, the info values,
+    the last distances (the shaping's potentials) and the physics status (0 ok)."""
+
+    obs: np.ndarray  # (B, obs_size) float32
+    reward: np.ndarray  # (B,) float64
+    reward_goal: np.ndarray  # (B,) float64 rows of ``info``
+    reward_reach: np.ndarray
+    reward_success: np.ndarray
+    distance: np.ndarray  # ball-goal distance, m
+    pusher_distance: np.ndarray  # pusher-push point distance, m
+    max_overlap: np.ndarray  # the largest contact overlap / the smaller radius
+    success: np.ndarray  # (B,) bool
+    prev_distance: np.ndarray  # (B,) float64
+    prev_pusher_distance: np.ndarray
+    status: np.ndarray  # (B,) int64
+    info: np.ndarray  # (len(INFO_KEYS) - 1, B) float64: the float info rows above, as one block
+
+
+def new_buffers(n_worlds: int, obs_size: int) -> StepBuffers:
+    """Buffers for n_worlds worlds (the float info values are rows of one block, so the vector env
+    copies them out in one go)."""
+    info = np.zeros((len(_FLOAT_INFO), n_worlds))
+    rows = dict(zip(_FLOAT_INFO, info))
+    return StepBuffers(
+        obs=np.zeros((n_worlds, obs_size), dtype=np.float32), reward=np.zeros(n_worlds),
+        success=np.zeros(n_worlds, dtype=np.bool_), prev_distance=np.zeros(n_worlds),
+        prev_pusher_distance=np.zeros(n_worlds), status=np.zeros(n_worlds, dtype=np.int64), info=info, **rows,
+    )
+
+
+@njit(inline="always")
+def _clip(value, lo, hi):
+    return min(max(value, lo), hi)
+
+
+@njit(inline="always")
+def _distances(b, x, goal, task, D):
+    """(ball-goal distance, pusher-push-point distance) of world b.
+
+    The push point sits behind the ball on the goal line, one contact distance away: a pusher
+    there that moves toward the goal pushes the ball straight at it."""
+    dg2 = 0.0
+    for k in range(D):
+        dk = goal[b, k] - x[b, 1, k]
+        dg2 += dk * dk
+    dg = np.sqrt(dg2)
+    inv = 1.0 / dg if dg > 0.0 else 0.0
+    dp2 = 0.0
+    for k in range(D):
+        push_k = x[b, 1, k] - (goal[b, k] - x[b, 1, k]) * inv * task.push_offset
+        dk = push_k - x[b, 0, k]
+        dp2 += dk * dk
+    return dg, np.sqrt(dp2)
+
+
+@njit(inline="always")
+def _body(b, who, k, x, goal):
+    """Coordinate k of a field's body: ball ``who`` or the goal."""
+    return goal[b, k] if who == GOAL else x[b, who, k]
+
+
+@njit(inline="always")
+def observe(b, x, v, goal, obs, table, low, high, D):
+    """Write world b's observation by the layout ``table`` (rows kind, a, b), clipped to its bounds."""
+    for f in range(table.shape[0]):
+        kind = table[f, 0]
+        p = table[f, 1]
+        q = table[f, 2]
+        for k in range(D):
+            idx = f * D + k
+            if kind == POSITION:
+                val = _body(b, p, k, x, goal)
+            elif kind == VELOCITY:
+                val = v[b, p, k]
+            else:  # DIFFERENCE
+                val = _body(b, p, k, x, goal) - _body(b, q, k, x, goal)
+            obs[b, idx] = _clip(val, low[idx], high[idx])
+
+
+@njit(inline="always")
+def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
+    """Advance the W worlds ``ids[:W]`` by one control period, one world per SIMD lane.
+
+    The lanes step is the core's (:func:`..physics.lanes.lanes_step`), bit-identical to the scalar
+    symplectic Euler step world by world. ``S`` is this thread's (6, n, D, LANES) scratch: state,
+    accelerations, external force, the motor throttle and the pair-force buffer. Returns the number
+    of blown-up worlds."""
+    na = act.shape[1]
+    X, V, A, E, T, F = S[0], S[1], S[2], S[3], S[4], S[5, 0]
+    fmax = task.max_force
+    inv_vmax = 1.0 / task.max_speed
+    L.load_block(ids, 0, W, x, v, X, V)
+    for i in range(E.shape[0]):
+        for k in range(E.shape[1]):
+            for w in range(W):
+                E[i, k, w] = 0.0
+    for w in range(W):
+        b = ids[w]
+        # the throttle a is clipped to [-1, 1] per axis and then to the unit disc, so the
+        # self-driven speed |v| = |a| v_max never exceeds v_max
+        a2 = 0.0
+        for k in range(na):
+            ak = _clip(act[b, k], -1.0, 1.0)
+            a2 += ak * ak
+        scale = 1.0 / np.sqrt(a2) if a2 > 1.0 else 1.0
+        for k in range(na):
+            T[0, k, w] = _clip(act[b, k], -1.0, 1.0) * scale
+    for _ in range(substeps):
+        # the pusher's motor: F_max (a - v / v_max) (a DC motor's linear force-speed law),
+        # re-evaluated every substep
+        for k in range(na):
+            for w in range(W):
+                E[0, k, w] = fmax * (T[0, k, w] - V[0, k, w] * inv_vmax)
+        L.lanes_step(True, dt, X, V, A, E, F, W, model, friction, g)
+    return L.store_block(ids, 0, W, x, v, X, V, status, g)
+
+
+@njit(nogil=True)
+def step_worlds(worlds, act, stepping, x, v, scratch, ids, model, friction, g, dt, substeps, task, table, low, high,
+                goal, buf):
+    """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
+    observe them without stepping). ``x``, ``v``, ``model``, ``friction`` and ``g`` are the
+    World's own (``World.state``, ``World.model``); gravity's length D compiles the D-dimensional
+    code. ``table``, ``low``, ``high``: the observation layout and its bounds."""
+    n_lanes = ids.shape[0]
+    na = act.shape[1]
+    status = buf.status
+    # refuse a non-finite action before anything moves
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        if stepping[b]:
+            for k in range(na):
+                if not np.isfinite(act[b, k]):
+                    return -(1 + b)
+    D = len(g)
+    # physics: the stepping worlds, LANES at a time
+    bad = 0
+    W = 0
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        status[b] = 0
+        if stepping[b]:
+            ids[W] = b
+            W += 1
+            if W == n_lanes:
+                bad += _physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, task, status, g)
+                W = 0
+    if W > 0:
+        bad += _physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, task, status, g)
+    # observation, reward and diagnostics, world by world
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        if status[b] != 0:
+            continue
+        dg, dp = _distances(b, x, goal, task, D)
+        observe(b, x, v, goal, buf.obs, table, low, high, D)
+        buf.max_overlap[b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, None, model, None, g)
+        buf.distance[b] = dg
+        buf.pusher_distance[b] = dp
+        if stepping[b]:
+            success = dg < task.goal_tolerance
+            r_goal = task.w_goal * (buf.prev_distance[b] - dg)
+            r_reach = task.w_reach * (buf.prev_pusher_distance[b] - dp)
+            r_success = task.success_bonus if success else 0.0
+            buf.reward_goal[b] = r_goal
+            buf.reward_reach[b] = r_reach
+            buf.reward_success[b] = r_success
+            buf.reward[b] = r_goal + r_reach + r_success
+            buf.success[b] = success
+        else:  # a world just reset: its observation, no reward
+            buf.reward_goal[b] = 0.0
+            buf.reward_reach[b] = 0.0
+            buf.reward_success[b] = 0.0
+            buf.reward[b] = 0.0
+            buf.success[b] = False
+        buf.prev_distance[b] = dg
+        buf.prev_pusher_distance[b] = dp
+    return bad
+
+
+@njit(nogil=True)
+def first_bad_action(act, skip):
+    """Index of the first world whose action holds NaN or inf (worlds with ``skip`` set are
+    ignored: their action is not used), or -1."""
+    for b in range(act.shape[0]):
+        if skip[b]:
+            continue
+        for k in range(act.shape[1]):
+            if not np.isfinite(act[b, k]):
+                return b
+    return -1

@@ -1,0 +1,212 @@
+"""Broad phases: which pairs of balls can touch. All pairs (O(n^2)) or a uniform grid (cell list).
+
+The grid counting-sorts the balls of a world into cells of edge >= the largest diameter, so a
+ball's possible partners lie in its own and the 3^D adjacent cells; cells adjacent along x are
+adjacent in the sorted order, so each (y, z) row of the neighbourhood is one contiguous range (9 in
+3D, 3 in 2D). The grid is rebuilt at every force evaluation (the neighbour list of
+:mod:`.neighbour_list` keeps its pairs for many steps instead). ``World(broadphase="auto")`` uses
+the grid from ``GRID_MIN_BALLS`` balls per world (the measured crossover).
+
+:func:`contacts` visits every contact of a world once, in a fixed order, with one of the contact
+laws' modes (:mod:`.contact`); :func:`contact_forces` is its FORCE specialisation.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .._jit import njit
+from .contact import FORCE, combine, pair_contact, terrain_contact
+
+__all__ = ["Grid", "new_grid", "build_grid", "neighbour_rows", "grid_neighbours", "contacts", "contact_forces",
+           "contacts_all_pairs", "contacts_grid", "GRID_MIN_BALLS"]
+
+# ``broadphase="auto"`` uses the grid from this many balls per world (measured crossover:
+# ``python -m penalty_env.bench core``, section c).
+GRID_MIN_BALLS = 64
+
+# Uniform-grid (cell list) buffers, one grid per world, rebuilt at every force evaluation.
+Grid = namedtuple(
+    "Grid",
+    [
+        "start",  # (B, cap + 1) first item of each cell
+        "items",  # (B, n) ball indices sorted by cell, ascending within a cell
+        "cell",  # (B, n) linear cell index of each ball
+        "geom",  # (B, 7) lower corner (3), upper corner (3), cell size
+        "dims",  # (B, 4) cells per axis (3) and their product
+    ],
+)
+
+
+def new_grid(B: int, n: int) -> Grid:
+    """Grid buffers for B worlds of n balls (up to 4 n cells; the cells grow if a ball flies off)."""
+    cap = max(4 * n, 64)
+    return Grid(
+        start=np.zeros((B, cap + 1), dtype=np.int64),
+        items=np.zeros((B, n), dtype=np.int64),
+        cell=np.zeros((B, n), dtype=np.int64),
+        geom=np.zeros((B, 7)),
+        dims=np.ones((B, 4), dtype=np.int64),
+    )
+
+
+@njit(inline="always")
+def contacts_all_pairs(mode, b, x, v, out, coef_pair, coef_terrain, model, friction, g):
+    """Every pair i < j once (forces scattered to both), then the terrain. O(n^2)."""
+    n = x.shape[1]
+    acc = 0.0
+    for i in range(n):
+        for j in range(i + 1, n):
+            acc = combine(mode, acc, pair_contact(mode, b, i, j, x, v, out, coef_pair, True, model, friction, g))
+        acc = combine(mode, acc, terrain_contact(mode, b, i, x, v, out, coef_terrain, model, friction, g))
+    return acc
+
+
+@njit(inline="always")
+def _cell_coord(xk, lo, inv_h, nk):
+    """Cell index along one axis, clamped to [0, nk); NaN lands in cell 0."""
+    q = (xk - lo) * inv_h
+    c = int(q) if q >= 0.0 else 0
+    return c if c < nk else nk - 1
+
+
+@njit
+def build_grid(b, x, grid, model, g):
+    """Counting-sort the balls of world b into cells of edge >= the largest diameter.
+
+    The grid spans the balls' bounding box. If that box would need more cells than the buffer
+    holds (a ball flung far away), the cells grow until it fits: slower, never wrong.
+    Returns False if a coordinate is not finite (the caller reports the blow-up).
+    """
+    D = len(g)
+    n = x.shape[1]
+    cap = grid.start.shape[1] - 1
+    finite = True
+    for k in range(3):
+        grid.geom[b, k] = 0.0  # lower corner
+        grid.geom[b, 3 + k] = 0.0  # upper corner
+        grid.dims[b, k] = 1
+    for k in range(D):
+        lo = np.inf
+        hi = -np.inf
+        for i in range(n):
+            xk = x[b, i, k]
+            if not np.isfinite(xk):
+                finite = False
+                continue
+            lo = min(lo, xk)
+            hi = max(hi, xk)
+        if lo <= hi:
+            grid.geom[b, k] = lo
+            grid.geom[b, 3 + k] = hi
+    h = model.cell_size
+    while True:  # float arithmetic: a far-flung ball must not overflow the cell count
+        total_f = 1.0
+        for k in range(D):
+            total_f *= np.floor((grid.geom[b, 3 + k] - grid.geom[b, k]) / h) + 1.0
+        if total_f <= cap or not h < np.inf:  # cap >= 1 always holds for a real grid
+            break
+        h *= max(1.26, (total_f / cap) ** (1.0 / D))
+    total = 1
+    for k in range(D):
+        nk = int((grid.geom[b, 3 + k] - grid.geom[b, k]) / h) + 1
+        grid.dims[b, k] = nk
+        total *= nk
+    grid.geom[b, 6] = h
+    grid.dims[b, 3] = total
+    inv_h = 1.0 / h
+    for c in range(total + 1):
+        grid.start[b, c] = 0
+    for i in range(n):
+        c = 0
+        stride = 1
+        for k in range(D):
+            ck = _cell_coord(x[b, i, k], grid.geom[b, k], inv_h, grid.dims[b, k])
+            c += ck * stride
+            stride *= grid.dims[b, k]
+        grid.cell[b, i] = c
+        grid.start[b, c] += 1
+    running = 0
+    for c in range(total):
+        running += grid.start[b, c]
+        grid.start[b, c] = running  # inclusive prefix: one past the last item of cell c
+    grid.start[b, total] = n
+    for i in range(n - 1, -1, -1):  # reverse fill leaves each cell ascending in i
+        c = grid.cell[b, i]
+        grid.start[b, c] -= 1
+        grid.items[b, grid.start[b, c]] = i
+    return finite
+
+
+@njit(inline="always")
+def neighbour_rows(b, i, x, grid, D):
+    """The 3^D cell neighbourhood of ball i as rows: cells adjacent along x are adjacent in the
+    sorted items, so each (y, z) row is one contiguous range of ``grid.items`` (9 ranges in 3D, 3
+    in 2D). Returns x0, x1 (the row's cell span), the y and z spans, and the cells per x and y."""
+    nx = grid.dims[b, 0]
+    ny = grid.dims[b, 1]
+    nz = grid.dims[b, 2]
+    # cell coordinates of ball i (as build_grid computed them; no integer division needed)
+    inv_h = 1.0 / grid.geom[b, 6]
+    cx = _cell_coord(x[b, i, 0], grid.geom[b, 0], inv_h, nx)
+    cy = _cell_coord(x[b, i, 1], grid.geom[b, 1], inv_h, ny)
+    cz = _cell_coord(x[b, i, 2], grid.geom[b, 2], inv_h, nz) if D == 3 else 0
+    return (max(cx - 1, 0), min(cx + 2, nx), max(cy - 1, 0), min(cy + 2, ny), max(cz - 1, 0), min(cz + 2, nz),
+            nx, ny)
+
+
+@njit(inline="always")
+def grid_neighbours(mode, b, i, half, x, v, out, coef_pair, grid, model, friction, g):
+    """Pair contacts of ball i with the balls in its own and the adjacent cells.
+
+    ``half``: only j > i, forces scattered to j too (each pair once, serial use).
+    Otherwise every j != i, force gathered on i only (each ball independent: parallel-safe and,
+    because the visiting order is fixed by the grid, independent of the thread count).
+    """
+    x0, x1, y0, y1, z0, z1, nx, ny = neighbour_rows(b, i, x, grid, len(g))
+    acc = 0.0
+    for qz in range(z0, z1):
+        for qy in range(y0, y1):
+            row = (qz * ny + qy) * nx
+            for idx in range(grid.start[b, row + x0], grid.start[b, row + x1]):
+                j = grid.items[b, idx]
+                if half:
+                    if j <= i:
+                        continue
+                elif j == i:
+                    continue
+                acc = combine(mode, acc, pair_contact(mode, b, i, j, x, v, out, coef_pair, half, model, friction, g))
+    return acc
+
+
+@njit(inline="always")
+def contacts_grid(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction, g):
+    """Every pair once through the grid (which must be built for these positions), then terrain."""
+    n = x.shape[1]
+    acc = 0.0
+    for i in range(n):
+        acc = combine(mode, acc, grid_neighbours(mode, b, i, True, x, v, out, coef_pair, grid, model, friction, g))
+        acc = combine(mode, acc, terrain_contact(mode, b, i, x, v, out, coef_terrain, model, friction, g))
+    return acc
+
+
+@njit
+def contact_forces(b, x, v, out, grid, model, friction, g):
+    """Add every contact force of world b to ``out``: ``contacts`` specialised to FORCE, so the
+    other modes' branches are pruned from the hot path."""
+    if grid is not None:
+        contacts_grid(FORCE, b, x, v, out, 0.0, 0.0, grid, model, friction, g)
+    else:
+        contacts_all_pairs(FORCE, b, x, v, out, 0.0, 0.0, model, friction, g)
+
+
+@njit
+def contacts(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction, g):
+    """Every contact of world b once: through the grid (built for these positions), or all pairs
+    when ``grid`` is None (pruned at compile time: a scene pays only for its broad phase)."""
+    if grid is not None:
+        return contacts_grid(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction, g)
+    return contacts_all_pairs(mode, b, x, v, out, coef_pair, coef_terrain, model, friction, g)
+

@@ -1,0 +1,417 @@
+"""Time integrators: one step function per method, and one driver that runs any of them.
+
+Each integrator is identified by the type of its scratch buffers (its *work*, allocated once per
+``World`` by :func:`allocate_work`): :func:`integrate` picks the method's step function from that
+type when Numba compiles a driver, so a scene compiles only the integrator it uses, and one driver,
+:func:`run_worlds`, serves all five (the event-located driver in :mod:`.events` likewise).
+
+=====================  ===============================================  ===========================
+method                 one step of dt                                   angular state
+=====================  ===============================================  ===========================
+explicit Euler         x += dt v; v += dt a(x, v)                        (none yet)
+symplectic Euler       v += dt a(x, v); x += dt v (the course's)         (none yet)
+velocity Verlet        x1 = x + dt v + dt^2/2 a0; a1 = a(x1, v + dt a0);
+                       v1 = v + dt/2 (a0 + a1) (damping at the
+                       predicted end-of-step velocity; a1 cached)
+RK4                    classical fourth order, four force passes
+implicit Euler         linearised backward Euler, frozen contacts,
+                       Jacobi-preconditioned conjugate gradients
+=====================  ===============================================  ===========================
+
+``a(x, v) = (contact forces + ext) / m + g``: :func:`accelerations`, through the broad phase
+(:mod:`.broadphase`) and the contact laws (:mod:`.contact`). Every world is stepped serially, so a
+world's result is bit-identical whatever the thread count and whether it runs alone or in a batch
+(the runner, :mod:`.runner`, spreads world ranges over threads).
+
+Status codes (``status[b]`` after a driver call): STATUS_OK, STATUS_NONFINITE (a position or
+velocity became NaN or inf), STATUS_CG (implicit Euler: conjugate gradients did not converge in
+some step of the call; the step used the last iterate).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import types
+from numba.extending import overload
+
+from .._jit import njit
+from .broadphase import build_grid, contact_forces, contacts
+from .contact import DIAG, LINEAR
+
+__all__ = [
+    "INTEGRATORS", "ExplicitEulerWork", "SymplecticEulerWork", "VelocityVerletWork", "RK4Work", "ImplicitEulerWork",
+    "allocate_work", "integrate", "run_worlds", "accelerations", "symplectic_euler_into", "final_status",
+    "STATUS_OK", "STATUS_NONFINITE", "STATUS_CG", "FORCE_EVALUATIONS",
+]
+
+INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
+STATUS_OK, STATUS_NONFINITE, STATUS_CG = 0, 1, 2
+# full contact passes per step (implicit Euler: one, plus its CG iterations' products)
+FORCE_EVALUATIONS = {"explicit_euler": 1, "symplectic_euler": 1, "velocity_verlet": 1, "rk4": 4, "implicit_euler": 1}
+
+
+# --------------------------------------------------------------------------------------------
+# Work buffers: one type per integrator (the type selects the step function)
+# --------------------------------------------------------------------------------------------
+
+
+class ExplicitEulerWork(NamedTuple):
+    a: np.ndarray  # (B, n, D) accelerations
+
+
+class SymplecticEulerWork(NamedTuple):
+    a: np.ndarray
+
+
+class VelocityVerletWork(NamedTuple):
+    a: np.ndarray
+    a0: np.ndarray  # the cached acceleration (contact + gravity) of the current state
+    vp: np.ndarray  # the predicted end-of-step velocity
+    a0_valid: np.ndarray  # (B,) bool: a0 belongs to the current state
+
+
+class RK4Work(NamedTuple):
+    a: np.ndarray
+    xe: np.ndarray
+    ve: np.ndarray
+    sx: np.ndarray
+    sv: np.ndarray
+
+
+class ImplicitEulerWork(NamedTuple):
+    f0: np.ndarray
+    rhs: np.ndarray
+    r: np.ndarray
+    p: np.ndarray
+    q: np.ndarray
+    z: np.ndarray
+    cg: np.ndarray  # (2,) [tolerance (relative residual), largest iteration count]
+    cg_failed: np.ndarray  # (B,) bool: some step of the last call did not converge
+
+
+_WORK = {
+    "explicit_euler": (ExplicitEulerWork, 1),
+    "symplectic_euler": (SymplecticEulerWork, 1),
+    "velocity_verlet": (VelocityVerletWork, 3),
+    "rk4": (RK4Work, 5),
+    "implicit_euler": (ImplicitEulerWork, 6),
+}
+
+
+def allocate_work(integrator: str, B: int, n: int, d: int):
+    """The scratch buffers of ``integrator`` for B worlds of n balls in d dimensions."""
+    cls, arrays = _WORK[integrator]
+    fields = [np.zeros((B, n, d)) for _ in range(arrays)]
+    if cls is VelocityVerletWork:
+        fields.append(np.zeros(B, dtype=np.bool_))
+    elif cls is ImplicitEulerWork:
+        fields += [np.array([1e-10, float(max(50, 4 * n * d))]), np.zeros(B, dtype=np.bool_)]
+    return cls(*fields)
+
+
+# --------------------------------------------------------------------------------------------
+# Accelerations
+# --------------------------------------------------------------------------------------------
+
+
+@njit(inline="always")
+def accelerations(b, x, v, a, ext, grid, model, friction, g):
+    """a = (contact forces + ext) / m + g for world b at state (x, v). False if x is not finite."""
+    D = len(g)
+    n = x.shape[1]
+    finite = True
+    for i in range(n):
+        for k in range(D):
+            a[b, i, k] = 0.0
+    if grid is not None:
+        finite = build_grid(b, x, grid, model, g)
+    contact_forces(b, x, v, a, grid, model, friction, g)
+    for i in range(n):
+        im = model.inv_mass[i]
+        for k in range(D):
+            if ext is not None:
+                a[b, i, k] = (a[b, i, k] + ext[b, i, k]) * im + g[k]
+            else:
+                a[b, i, k] = a[b, i, k] * im + g[k]
+    return finite
+
+
+@njit
+def _dot(b, p, q, D):
+    s = 0.0
+    for i in range(p.shape[1]):
+        for k in range(D):
+            s += p[b, i, k] * q[b, i, k]
+    return s
+
+
+# --------------------------------------------------------------------------------------------
+# One step of each method (world b, serial). Each returns False if a position is not finite.
+# --------------------------------------------------------------------------------------------
+
+
+@njit(inline="always")
+def symplectic_euler_into(a, b, dt, x, v, ext, grid, model, friction, g):
+    """v += dt a(x, v); x += dt v, with ``a`` as scratch (also the event location's crossing step)."""
+    D = len(g)
+    ok = accelerations(b, x, v, a, ext, grid, model, friction, g)
+    for i in range(x.shape[1]):
+        for k in range(D):
+            v[b, i, k] += dt * a[b, i, k]
+            x[b, i, k] += dt * v[b, i, k]
+    return ok
+
+
+@njit(inline="always")
+def explicit_euler_step(work, b, dt, x, v, ext, grid, model, friction, g):
+    """x += dt v; v += dt a(x, v), both from the old state."""
+    D = len(g)
+    a = work.a
+    ok = accelerations(b, x, v, a, ext, grid, model, friction, g)
+    for i in range(x.shape[1]):
+        for k in range(D):
+            x[b, i, k] += dt * v[b, i, k]
+            v[b, i, k] += dt * a[b, i, k]
+    return ok
+
+
+@njit(inline="always")
+def symplectic_euler_step(work, b, dt, x, v, ext, grid, model, friction, g):
+    """v += dt a(x, v); x += dt v (the course's integrator)."""
+    return symplectic_euler_into(work.a, b, dt, x, v, ext, grid, model, friction, g)
+
+
+@njit(inline="always")
+def velocity_verlet_step(work, b, dt, x, v, ext, grid, model, friction, g):
+    """x1 = x + dt v + dt^2/2 a0; a1 = a(x1, v + dt a0); v1 = v + dt/2 (a0 + a1).
+
+    The damping in a1 sees the predicted end-of-step velocity v + dt a0. ``work.a0`` caches the
+    contact + gravity part of a1 as the next step's a0 (one force evaluation per step); the external
+    force is added on use, so it may change between calls.
+    """
+    D = len(g)
+    n = x.shape[1]
+    a, a0, vp, a0_valid = work.a, work.a0, work.vp, work.a0_valid
+    ok = True
+    if not a0_valid[b]:
+        ok = accelerations(b, x, v, a0, None, grid, model, friction, g)
+        a0_valid[b] = True
+    for i in range(n):
+        im = model.inv_mass[i]
+        for k in range(D):
+            ak = a0[b, i, k] + (ext[b, i, k] * im if ext is not None else 0.0)
+            x[b, i, k] += dt * v[b, i, k] + 0.5 * dt * dt * ak
+            vp[b, i, k] = v[b, i, k] + dt * ak
+    ok = accelerations(b, x, vp, a, None, grid, model, friction, g) and ok
+    for i in range(n):
+        im = model.inv_mass[i]
+        for k in range(D):
+            e = ext[b, i, k] * im if ext is not None else 0.0
+            v[b, i, k] += 0.5 * dt * (a0[b, i, k] + a[b, i, k] + 2.0 * e)
+            a0[b, i, k] = a[b, i, k]
+    return ok
+
+
+@njit(inline="always")
+def rk4_step(work, b, dt, x, v, ext, grid, model, friction, g):
+    """Classical fourth-order Runge-Kutta: four full contact passes per step."""
+    D = len(g)
+    n = x.shape[1]
+    a, xe, ve, sx, sv = work.a, work.xe, work.ve, work.sx, work.sv
+    ok = accelerations(b, x, v, a, ext, grid, model, friction, g)
+    h2 = 0.5 * dt
+    for i in range(n):
+        for k in range(D):
+            sx[b, i, k] = v[b, i, k]
+            sv[b, i, k] = a[b, i, k]
+            xe[b, i, k] = x[b, i, k] + h2 * v[b, i, k]
+            ve[b, i, k] = v[b, i, k] + h2 * a[b, i, k]
+    for stage in range(1, 4):
+        ok = accelerations(b, xe, ve, a, ext, grid, model, friction, g) and ok
+        w = 2.0 if stage < 3 else 1.0
+        hs = h2 if stage == 1 else dt
+        for i in range(n):
+            for k in range(D):
+                sx[b, i, k] += w * ve[b, i, k]
+                sv[b, i, k] += w * a[b, i, k]
+                if stage < 3:
+                    xe[b, i, k] = x[b, i, k] + hs * ve[b, i, k]
+                    ve[b, i, k] = v[b, i, k] + hs * a[b, i, k]
+    h6 = dt / 6.0
+    for i in range(n):
+        for k in range(D):
+            x[b, i, k] += h6 * sx[b, i, k]
+            v[b, i, k] += h6 * sv[b, i, k]
+    return ok
+
+
+@njit
+def implicit_euler_step(work, b, dt, x, v, ext, grid, model, friction, g):
+    """Linearised backward Euler (Baraff & Witkin 1998), one Newton step with frozen contacts.
+
+    Solves (M - dt D - dt^2 K) dv = dt (f0 + dt K v) by Jacobi-preconditioned conjugate gradients,
+    then v += dv, x += dt v. K and D keep only the normal (n n^T) part of each contact's Jacobian,
+    which is negative semidefinite, so the system matrix is symmetric positive definite and the
+    step is stable at any dt. Friction and the no-tension clip stay explicit (in f0 only). A step
+    whose solve does not converge sets ``work.cg_failed[b]``.
+    """
+    D = len(g)
+    n = x.shape[1]
+    f0, rhs, r, p, q, z = work.f0, work.rhs, work.r, work.p, work.q, work.z
+    cg_tol = work.cg[0]
+    cg_max_iter = work.cg[1]
+    finite = accelerations(b, x, v, f0, ext, grid, model, friction, g)  # grid built here
+    c_sp = dt * dt * model.ks
+    c_st = dt * dt * model.ks_terrain
+    c_p = dt * model.kd + c_sp
+    c_t = dt * model.kd_terrain + c_st
+    # rhs = dt M a0 + dt^2 K v, with (K v)_i = -ks n (n . (v_i - v_j)): a LINEAR pass with -coef
+    for i in range(n):
+        for k in range(D):
+            rhs[b, i, k] = 0.0
+            z[b, i, k] = 0.0
+    contacts(LINEAR, b, x, v, rhs, -c_sp, -c_st, grid, model, friction, g)
+    for i in range(n):
+        m = 1.0 / model.inv_mass[i]
+        for k in range(D):
+            rhs[b, i, k] += dt * m * f0[b, i, k]
+    # Jacobi preconditioner: diag(M + c n n^T)
+    contacts(DIAG, b, x, v, z, c_p, c_t, grid, model, friction, g)
+    for i in range(n):
+        m = 1.0 / model.inv_mass[i]
+        for k in range(D):
+            z[b, i, k] = 1.0 / (z[b, i, k] + m)  # z now holds the inverse diagonal
+    # CG from dv = 0 (dv lives in f0's slot after f0 is consumed)
+    dv = f0
+    for i in range(n):
+        for k in range(D):
+            r[b, i, k] = rhs[b, i, k]
+            dv[b, i, k] = 0.0
+            p[b, i, k] = z[b, i, k] * r[b, i, k]
+    rz = 0.0
+    for i in range(n):
+        for k in range(D):
+            rz += r[b, i, k] * z[b, i, k] * r[b, i, k]
+    r0 = np.sqrt(_dot(b, rhs, rhs, D))
+    converged = r0 == 0.0
+    it = 0
+    while not converged and it < cg_max_iter:
+        for i in range(n):
+            m = 1.0 / model.inv_mass[i]
+            for k in range(D):
+                q[b, i, k] = m * p[b, i, k]
+        contacts(LINEAR, b, x, p, q, c_p, c_t, grid, model, friction, g)
+        pq = _dot(b, p, q, D)
+        if not pq > 0.0:
+            break
+        alpha = rz / pq
+        for i in range(n):
+            for k in range(D):
+                dv[b, i, k] += alpha * p[b, i, k]
+                r[b, i, k] -= alpha * q[b, i, k]
+        it += 1
+        if np.sqrt(_dot(b, r, r, D)) <= cg_tol * r0:
+            converged = True
+            break
+        rz_new = 0.0
+        for i in range(n):
+            for k in range(D):
+                rz_new += r[b, i, k] * z[b, i, k] * r[b, i, k]
+        beta = rz_new / rz
+        rz = rz_new
+        for i in range(n):
+            for k in range(D):
+                p[b, i, k] = z[b, i, k] * r[b, i, k] + beta * p[b, i, k]
+    for i in range(n):
+        for k in range(D):
+            v[b, i, k] += dv[b, i, k]
+            x[b, i, k] += dt * v[b, i, k]
+    if not converged:
+        work.cg_failed[b] = True
+    return finite
+
+
+# --------------------------------------------------------------------------------------------
+# Dispatch on the work type (resolved when a driver compiles: nothing is decided per step)
+# --------------------------------------------------------------------------------------------
+
+
+def _is(work, cls) -> bool:
+    return isinstance(work, types.BaseNamedTuple) and work.instance_class is cls
+
+
+def integrate(work, b, dt, x, v, ext, grid, model, friction, g):
+    """One step of world b with the integrator whose work buffers these are (jitted code only)."""
+    raise NotImplementedError("integrate is called from jitted code")
+
+
+@overload(integrate)  # not inlined: its callee must see ``grid``, ``ext`` and ``friction`` as arguments, so a None one is compiled away
+def _integrate(work, b, dt, x, v, ext, grid, model, friction, g):
+    for cls, step in ((ExplicitEulerWork, explicit_euler_step), (SymplecticEulerWork, symplectic_euler_step),
+                      (VelocityVerletWork, velocity_verlet_step), (RK4Work, rk4_step),
+                      (ImplicitEulerWork, implicit_euler_step)):
+        if _is(work, cls):
+            return lambda work, b, dt, x, v, ext, grid, model, friction, g: step(work, b, dt, x, v, ext, grid, model,
+                                                                                 friction, g)
+    return None
+
+
+def begin_world(work, b):
+    """Reset what a driver call reports per world (implicit Euler: the convergence flag)."""
+    raise NotImplementedError("begin_world is called from jitted code")
+
+
+@overload(begin_world, inline="always")
+def _begin_world(work, b):
+    if _is(work, ImplicitEulerWork):
+        def impl(work, b):
+            work.cg_failed[b] = False
+        return impl
+    return lambda work, b: None
+
+
+@njit
+def final_status(b, ok, x, v, g):
+    """STATUS_NONFINITE if the step said so or any position or velocity of world b is not finite."""
+    if not ok:
+        return STATUS_NONFINITE
+    for i in range(x.shape[1]):
+        for k in range(len(g)):
+            if not (np.isfinite(x[b, i, k]) and np.isfinite(v[b, i, k])):
+                return STATUS_NONFINITE
+    return STATUS_OK
+
+
+def world_status(work, b, ok, x, v, g):
+    """World b's status after a driver call (jitted code only)."""
+    raise NotImplementedError("world_status is called from jitted code")
+
+
+@overload(world_status, inline="always")
+def _world_status(work, b, ok, x, v, g):
+    if _is(work, ImplicitEulerWork):
+        def impl(work, b, ok, x, v, g):
+            st = final_status(b, ok, x, v, g)
+            return STATUS_CG if st == STATUS_OK and work.cg_failed[b] else st
+        return impl
+    return lambda work, b, ok, x, v, g: final_status(b, ok, x, v, g)
+
+
+# --------------------------------------------------------------------------------------------
+# The driver
+# --------------------------------------------------------------------------------------------
+
+
+@njit(nogil=True)
+def run_worlds(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, status):
+    """Worlds b0..b1-1, ``nsteps`` steps each, every world serial; sets ``status[b]``."""
+    for b in range(b0, b1):
+        begin_world(work, b)
+        ok = True
+        for _ in range(nsteps):
+            ok = integrate(work, b, dt, x, v, ext, grid, model, friction, g)
+            if not ok:
+                break
+        status[b] = world_status(work, b, ok, x, v, g)

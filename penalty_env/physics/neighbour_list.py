@@ -1,0 +1,425 @@
+"""Large worlds: a Verlet neighbour list, and the force loop parallel over balls.
+
+A world of ``LARGE_WORLD_MIN_BALLS`` balls or more, with the grid and symplectic or explicit Euler,
+is stepped here instead of one world per thread (:func:`run_large`; its docstring gives the
+algorithm: a list of every pair within r_i + r_j + skin, balls that "escape" it, storage sorted by
+grid cell, slabs of cells whose writes never meet, so the result depends neither on the thread
+count nor on how the steps are split into calls). The pair law is the list twin
+:func:`.contact_listed.pair_contact_listed`.
+
+:class:`NeighbourLists` holds one list per world of a batch, on the Python side.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+from typing import Any
+
+import numpy as np
+
+from .._jit import njit, prange
+from .broadphase import build_grid, neighbour_rows, new_grid
+from .contact import FORCE, pair_contact, shape_dist2, terrain_contact
+from .contact_listed import pair_contact_listed
+from .integrators import STATUS_OK, final_status
+
+__all__ = ["LargeWorld", "NeighbourLists", "run_large", "LARGE_WORLD_MIN_BALLS", "NEIGHBOUR_SKIN",
+           "LARGE_WORLD_MAX_ESCAPES", "EXPLICIT_EULER", "SYMPLECTIC_EULER"]
+
+# A world this large is stepped with its force loop parallel over balls (symplectic / explicit
+# Euler) instead of one world per thread.
+LARGE_WORLD_MIN_BALLS = 128
+# ... with a Verlet neighbour list: every pair within r_i + r_j + skin, skin = this fraction of the
+# largest diameter (rebuilt, and the storage re-sorted by grid cell, once a ball has moved skin / 2)
+NEIGHBOUR_SKIN = 0.1
+# ... and up to n / 256 (at least 64, at most this many) balls that have moved skin / 2 since (their
+# contacts are searched each step, escaped pairs pair by pair) before the list is rebuilt
+LARGE_WORLD_MAX_ESCAPES = 256
+# the two integrators this path runs (``run_large``'s ``integ``)
+EXPLICIT_EULER, SYMPLECTIC_EULER = 0, 1
+
+# One large world's private state (``run_large``): its balls in grid-cell order in memory, its own
+# grid, and a Verlet neighbour list (every pair within r_i + r_j + skin at the last build).
+LargeWorld = namedtuple(
+    "LargeWorld",
+    [
+        "x", "v", "a", "ext",  # (1, n, D) state, accelerations and external force in storage order
+        "grid",  # Grid (one row) of the storage at the last build
+        "perm",  # (n,) ball index of each storage slot
+        "order", "itmp",  # (n,) int scratch
+        "tmp",  # (n, max(D, 2)) float scratch
+        "nbr",  # (n, cap) int32 storage slots of each ball's listed neighbours, in grid order
+        "count",  # (n,) int32 listed neighbours per ball
+        "near",  # (n,) int8: 1 if the ball was within a skin of a terrain shape at the build
+        "xref",  # (n, D) positions at the last build
+        "escaped",  # (n,) int8: 1 once the slot has moved skin / 2 from xref
+        "escapes",  # (max_escapes,) the escaped slots, in the order they escaped
+        "moved",  # (threads,) per thread: how many slots escaped in the last step (-1: not finite)
+        "skin",  # list reach beyond contact
+        "state",  # (4,) int64: [list valid, largest count at the last build, builds so far, escaped]
+    ],
+)
+
+
+@njit(parallel=True)
+def _permute_rows(src, order, tmp):
+    """src[0, i] = src[0, order[i]] for every row i (through tmp, (n, D))."""
+    n = order.shape[0]
+    for i in prange(n):
+        for k in range(src.shape[2]):
+            tmp[i, k] = src[0, order[i], k]
+    for i in prange(n):
+        for k in range(src.shape[2]):
+            src[0, i, k] = tmp[i, k]
+
+
+@njit(inline="always")
+def _list_neighbours(i, grid, xs, sm, nbr, skin, D):
+    """Write ball i's neighbours j > i within r_i + r_j + skin to ``nbr[i]`` in the grid's order (as
+    many as fit below its last column, which takes the rejects); return how many there are: each
+    pair is listed once, by its lower slot. The storage must be in the grid's cell order (slot =
+    item), so a listed j lies in i's layer of cells along the last axis or in the next one.
+    Branch-free: every candidate is written and the count advances only for a neighbour."""
+    last = nbr.shape[1] - 1
+    x0, x1, y0, y1, z0, z1, nx, ny = neighbour_rows(0, i, xs, grid, D)
+    count = 0
+    reach = sm.radii[i] + skin
+    p0 = xs[0, i, 0]
+    p1 = xs[0, i, 1]
+    p2 = xs[0, i, 2] if D == 3 else 0.0
+    for qz in range(z0, z1):
+        for qy in range(y0, y1):
+            row = (qz * ny + qy) * nx
+            # storage is in cell order: the slots after i are the later cells (rows before i's end
+            # before it, and i's own row resumes after it), so only they are scanned
+            for j in range(max(grid.start[0, row + x0], i + 1), grid.start[0, row + x1]):
+                cut = reach + sm.radii[j]
+                d0 = xs[0, j, 0] - p0
+                d1 = xs[0, j, 1] - p1
+                d2 = xs[0, j, 2] - p2 if D == 3 else 0.0
+                near = d0 * d0 + d1 * d1 + d2 * d2 < cut * cut
+                nbr[i, min(count, last)] = j
+                count += 1 if near else 0
+    return count
+
+
+@njit(inline="always")
+def _near_terrain(i, xs, sm, reach, D):
+    """1 unless ball i's surface is at least ``reach`` clear of every terrain shape (phi(c_i) - r_i
+    >= reach; a position that is not finite counts as near)."""
+    r = sm.radii[i]
+    for s in range(sm.shape_kind.shape[0]):
+        sign, dist2 = shape_dist2(0, i, xs, sm, s, D)
+        if not sign * (np.sqrt(dist2) - sm.shape_radius[s]) - r >= reach:
+            return 1
+    return 0
+
+
+@njit(parallel=True)
+def _build_list(grid, xs, sm, lw, g):
+    """Every pair within r_i + r_j + skin, listed once by its lower slot in the grid's fixed order
+    (the list, and so the force sums, do not depend on the thread count), and which balls are
+    within a skin of the terrain. Returns the largest count; a count at the list's capacity leaves
+    the list invalid (the caller grows it and retries)."""
+    D = len(g)
+    n = xs.shape[1]
+    nbr, cnt, near, xref = lw.nbr, lw.count, lw.near, lw.xref
+    skin = lw.skin
+    for i in prange(n):
+        cnt[i] = _list_neighbours(i, grid, xs, sm, nbr, skin, D)
+        # a ball that has not escaped is within skin / 2 of xref, and phi is 1-Lipschitz: a
+        # clearance of a skin at the build means no terrain contact until it escapes
+        near[i] = _near_terrain(i, xs, sm, skin, D)
+        for k in range(D):
+            xref[i, k] = xs[0, i, k]
+    most = 0
+    for i in range(n):
+        most = max(most, cnt[i])
+    return most
+
+
+@njit(inline="always")
+def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g):
+    """Symplectic / explicit Euler update of storage slots i0..i1-1 (leaving their forces zeroed for
+    the next step); marks each slot that is now skin / 2 or more from where the list was built.
+    Returns how many it marked, or -1 (after updating every slot) if a displacement is not finite:
+    the caller rebuilds, and the rebuild's grid reports a position that is not finite."""
+    D = len(g)
+    marked = 0
+    blown = False
+    for i in range(i0, i1):
+        im = sm.inv_mass[i]
+        d2 = 0.0
+        for k in range(D):
+            ak = (a[0, i, k] + (es[0, i, k] if ext is not None else 0.0)) * im + g[k]
+            a[0, i, k] = 0.0  # ready for the next step's forces
+            if integ == SYMPLECTIC_EULER:
+                vs[0, i, k] += dt * ak
+                xs[0, i, k] += dt * vs[0, i, k]
+            else:
+                xs[0, i, k] += dt * vs[0, i, k]
+                vs[0, i, k] += dt * ak
+            dk = xs[0, i, k] - xref[i, k]
+            d2 += dk * dk
+        if not d2 < half2:
+            blown = blown or not np.isfinite(d2)
+            if escaped[i] == 0:
+                escaped[i] = 1
+                marked += 1
+    return -1 if blown else marked
+
+
+@njit
+def _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne):
+    """Pair forces of the escaped balls (serial, each pair once, applied to both balls; the list
+    pass skipped them). An escaped ball meets the others through the grid of the last build: every
+    ball that has not escaped is within skin / 2 of where that grid put it, and the grid's cells
+    are wider than r_i + r_j + skin, so a ball in reach sits in the 3^D cells around the escaped
+    ball's current position. Escaped balls meet each other pair by pair."""
+    D = len(g)
+    for e in range(ne):
+        i = escapes[e]
+        x0, x1, y0, y1, z0, z1, nx, ny = neighbour_rows(0, i, xs, grid, D)
+        for qz in range(z0, z1):
+            for qy in range(y0, y1):
+                row = (qz * ny + qy) * nx
+                for j in range(grid.start[0, row + x0], grid.start[0, row + x1]):
+                    if escaped[j] == 0:
+                        pair_contact(FORCE, 0, i, j, xs, vs, a, 0.0, True, sm, friction, g)
+        for f in range(e + 1, ne):
+            pair_contact(FORCE, 0, i, escapes[f], xs, vs, a, 0.0, True, sm, friction, g)
+
+
+@njit
+def _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne):
+    """Listed pair forces and terrain contacts of every ball in slab s (serial, storage order). The
+    terrain is tested for the balls listed near it and for the escaped ones (which may have come
+    near it since the build). A function of its own, not inlined: each inlined call site would
+    compile the force law again."""
+    for i in range(start[s * layer], start[(s + 1) * layer]):
+        escaped_i = ne > 0 and escaped[i] != 0
+        if not escaped_i:
+            pair_contact_listed(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne)
+        if escaped_i or near[i] != 0:
+            terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
+
+
+@njit(parallel=True)
+def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads):
+    """Symplectic or explicit Euler for a world too large to run one per thread. Returns the number
+    of steps taken: fewer than ``nsteps`` when the world blew up (``status``) or when a ball has more
+    neighbours than the list holds (``lw.state[1]`` says how many; the caller grows it and goes on).
+
+    A Verlet neighbour list, as LAMMPS and HOOMD keep: every pair within r_i + r_j + skin is listed
+    once (by its lower storage slot), found through a grid whose cells are at least that wide.
+    Until a ball has moved skin / 2 from where it was at the build, no pair outside the list can
+    touch, so a step visits only the list, and each pair's force is computed once and applied to
+    both balls (Newton's third law, as LAMMPS's "newton on"; measured at 100,000 balls, 1.3x faster
+    than gathering every pair from both sides). The writes stay apart by slabs: with the storage
+    sorted by cell, one layer of cells along the last axis is a contiguous range of slots, and its
+    listed partners lie in the same layer or the next. So the even layers run in parallel, then the
+    odd ones, each layer serially in storage order. A layer's forces are complete once it and the
+    layer before it have run, and no later work of the step reads its state: so each odd layer,
+    once its forces are in, advances itself and the (even) layer after it while they are still in
+    cache. The terrain is tested only for the balls that were within a skin of it at the build (a
+    ball that has not escaped has moved less than skin / 2 since) and for the escaped ones.
+
+    A ball that has moved skin / 2 "escapes": the list no longer speaks for it, and its contacts are
+    found each step through the build's grid (:func:`_escaped_contacts`, before the layers, while
+    every ball is still where the step began). In a pile a few fast balls escape long before the
+    rest move; they no longer force the whole list to be rebuilt. Once ``escapes`` is full, the
+    next step re-sorts the storage by grid cell (balls that touch sit close in memory) and rebuilds
+    the list.
+
+    Nothing depends on the thread count (what each ball receives, and in which order, is fixed by
+    the layers and the list; the escaped balls go in a serial pass), and the rebuilds depend only
+    on the state, so splitting the steps over calls changes nothing. ``x``, ``v``, ``ext``,
+    ``status`` are the world's own ``(1, n, D)`` / ``(1,)`` slices, in ball order: gathered into
+    storage order on entry, scattered back on exit. ``sm`` is a Model
+    whose radii / inv_mass arrays are the world's own, permuted with the storage. ``threads``: how
+    many ways to split the slabs (the thread count, at most ``len(lw.moved)``; the result does not
+    depend on it).
+    """
+    D = len(g)
+    n = x.shape[1]
+    # (namedtuple fields are bound to locals before the prange loops: Numba 0.68 silently drops
+    # stores through ``tuple.field[i] = ...`` inside a parallel loop; reads are fine)
+    xs, vs, a, es, grid = lw.x, lw.v, lw.a, lw.ext, lw.grid
+    perm, nbr, cnt, near, moved = lw.perm, lw.nbr, lw.count, lw.near, lw.moved
+    xref, escaped, escapes = lw.xref, lw.escaped, lw.escapes
+    start = grid.start[0]
+    threads = max(1, min(threads, moved.shape[0]))
+    half2 = 0.25 * lw.skin * lw.skin
+    for i in prange(n):
+        u = perm[i]
+        for k in range(D):
+            xs[0, i, k] = x[0, u, k]
+            vs[0, i, k] = v[0, u, k]
+            a[0, i, k] = 0.0
+            if ext is not None:
+                es[0, i, k] = ext[0, u, k]
+    ok = True
+    taken = 0
+    while taken < nsteps:
+        if lw.state[0] == 0:
+            # re-sort the storage by grid cell, then list every pair within reach
+            if not build_grid(0, xs, grid, sm, g):
+                ok = False
+                break
+            order = lw.order
+            for i in range(n):
+                order[i] = grid.items[0, i]
+            _permute_rows(xs, order, lw.tmp)
+            _permute_rows(vs, order, lw.tmp)
+            if ext is not None:
+                _permute_rows(es, order, lw.tmp)
+            for i in range(n):
+                j = order[i]
+                lw.tmp[i, 0] = sm.radii[j]
+                lw.tmp[i, 1] = sm.inv_mass[j]
+                lw.itmp[i] = perm[j]
+            for i in range(n):
+                sm.radii[i] = lw.tmp[i, 0]
+                sm.inv_mass[i] = lw.tmp[i, 1]
+                perm[i] = lw.itmp[i]
+                escaped[i] = 0
+            most = _build_list(grid, xs, sm, lw, g)
+            lw.state[1] = most
+            lw.state[2] += 1
+            lw.state[3] = 0
+            if most >= nbr.shape[1]:
+                break  # list too small (its last column takes the rejects): the caller grows it
+            lw.state[0] = 1
+        ne = lw.state[3]
+        # the escaped balls' pairs first (serial), then the slabs: each pair once, its force added
+        # to both balls; a slab (one layer of cells along the last axis, a contiguous range of the
+        # sorted storage) writes only to itself and the next slab, so the even slabs run in
+        # parallel, then the odd ones, each advancing itself and the next once its forces are in.
+        # What a ball receives, and in which order, depends on the slabs, never on the threads.
+        if ne > 0:
+            _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne)
+        # cells in one layer along the last axis (not "layer = 1; layer *= ...": the literal 1 typed
+        # one of the two passes' calls of _slab_forces apart, and compiled it twice)
+        layer = grid.dims[0, 0] * grid.dims[0, 1] if D == 3 else grid.dims[0, 0]
+        slabs = grid.dims[0, D - 1]
+        for t in prange(threads):
+            for q in range(t, (slabs + 1) // 2, threads):  # round robin: the slabs differ in size
+                _slab_forces(2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne)
+        for t in prange(threads):
+            marked = 0
+            # (an int64 copy of t: a prange index may be unsigned, and int64 with uint64 unifies to float)
+            q = -1 if t == 0 else np.int64(t)  # thread 0 first advances slab 0: complete after the even pass
+            while q < slabs // 2:
+                s0 = 0
+                s1 = 1
+                if q >= 0:
+                    s0 = 1 + 2 * q
+                    _slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne)
+                    s1 = min(s0 + 2, slabs)  # this slab and the next, contiguous in storage
+                m = _advance(integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, ext, sm, xref, escaped,
+                             half2, g)
+                marked = -1 if (m < 0 or marked < 0) else marked + m
+                q = np.int64(t) if q < 0 else q + threads
+            moved[t] = marked
+        taken += 1
+        # collect the newly escaped slots in storage order; rebuild when they no longer fit, or
+        # at once when a position is not finite
+        fresh = 0
+        for t in range(threads):
+            if moved[t] < 0:
+                lw.state[0] = 0
+            fresh += moved[t]
+        if lw.state[0] != 0 and fresh > 0:
+            for i in range(n):
+                if escaped[i] == 1:
+                    escaped[i] = 2
+                    if ne < escapes.shape[0]:
+                        escapes[ne] = i
+                    ne += 1
+            if ne > escapes.shape[0]:
+                lw.state[0] = 0
+        lw.state[3] = ne
+    for i in prange(n):
+        u = perm[i]
+        for k in range(D):
+            x[0, u, k] = xs[0, i, k]
+            v[0, u, k] = vs[0, i, k]
+    status[0] = final_status(0, ok, x, v, g)
+    return taken
+
+
+
+class NeighbourLists:
+    """One neighbour list (:data:`LargeWorld`) per world of a batch, and its stepping.
+
+    ``model`` is the World's :class:`~.model.Model`; each world gets a copy whose radii and inverse
+    masses follow its storage order, and whose cell size is wide enough for the list's reach.
+    """
+
+    def __init__(self, model: Any, B: int, n: int, d: int, threads: int) -> None:
+        self.n, self.d = n, d
+        self.threads = max(1, threads)
+        self.radii = np.array(model.radii)
+        self.inv_mass = np.array(model.inv_mass)
+        self.skin = NEIGHBOUR_SKIN * 2.0 * float(self.radii.max())
+        self.worlds: list[tuple[LargeWorld, Any]] = []
+        for _ in range(B):
+            self.worlds.append((
+                self._new(4 * (d - 1) ** 2 + 5),
+                model._replace(radii=self.radii.copy(), inv_mass=self.inv_mass.copy(),
+                               cell_size=model.cell_size + self.skin),
+            ))
+        self.reset()
+
+    def _new(self, cap: int) -> LargeWorld:
+        n, d = self.n, self.d
+        return LargeWorld(
+            x=np.zeros((1, n, d)), v=np.zeros((1, n, d)), a=np.zeros((1, n, d)), ext=np.zeros((1, n, d)),
+            grid=new_grid(1, n), perm=np.arange(n), order=np.zeros(n, dtype=np.int64),
+            itmp=np.zeros(n, dtype=np.int64), tmp=np.zeros((n, max(d, 2))), nbr=np.zeros((n, cap), dtype=np.int32),
+            count=np.zeros(n, dtype=np.int32), near=np.zeros(n, dtype=np.int8), xref=np.zeros((n, d)),
+            escaped=np.zeros(n, dtype=np.int8),
+            escapes=np.zeros(int(np.clip(n // 256, 64, LARGE_WORLD_MAX_ESCAPES)), dtype=np.int64),
+            moved=np.zeros(self.threads, dtype=np.int64),  # one per thread
+            skin=self.skin, state=np.zeros(4, dtype=np.int64),
+        )
+
+    def reset(self, worlds: Any = slice(None)) -> None:
+        """A world's storage order and list are history: after new state, start afresh, so the
+        world steps exactly as a new World made from that state would."""
+        for b in np.atleast_1d(np.arange(len(self.worlds))[worlds]):
+            lw, model = self.worlds[b]
+            lw.perm[:] = np.arange(self.n)
+            lw.state[0] = 0
+            model.radii[:] = self.radii
+            model.inv_mass[:] = self.inv_mass
+
+    def step(self, integ: int, n: int, dt: float, x: np.ndarray, v: np.ndarray, ext: np.ndarray | None,
+             friction: Any, g: tuple, status: np.ndarray) -> None:
+        """Advance every world by n steps (world after world, each parallel over its balls)."""
+        for b, (lw, model) in enumerate(self.worlds):
+            w = slice(b, b + 1)
+            done = 0
+            while done < n:
+                done += run_large(integ, n - done, dt, x[w], v[w], None if ext is None else ext[w], model, friction,
+                                  g, status[w], lw, self.threads)
+                if status[b] != STATUS_OK:
+                    break
+                if done < n:  # a ball has more neighbours than the list holds: grow it, go on
+                    grown = self._new(int(lw.state[1]) + 9)
+                    for field in ("perm", "state"):
+                        getattr(grown, field)[:] = getattr(lw, field)
+                    lw = grown
+                    self.worlds[b] = (lw, model)
+
+    def stats(self, b: int = 0) -> dict:
+        """World b's list: ``builds`` so far, balls ``escaped`` now, ``listed_per_ball`` (mean listed
+        neighbours at the last build), ``largest`` (the most any ball had), ``capacity`` (slots per
+        ball), ``near_terrain`` (per ball, in the user's order: within a skin of a shape at the build,
+        so tested against the terrain until it escapes)."""
+        lw = self.worlds[b][0]
+        near = np.zeros(self.n, dtype=bool)
+        near[lw.perm] = lw.near != 0
+        return {"builds": int(lw.state[2]), "escaped": int(lw.state[3]),
+                "listed_per_ball": float(lw.count.mean()), "largest": int(lw.state[1]),
+                "capacity": int(lw.nbr.shape[1]), "near_terrain": near}

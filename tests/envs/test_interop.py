@@ -1,0 +1,65 @@
+"""What other libraries read from the envs: frame rates, video recorders, info dtypes."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import penalty_env  # noqa: F401
+
+INFO_DTYPES = {"reward_goal": np.float64, "reward_reach": np.float64, "reward_success": np.float64,
+               "distance": np.float64, "pusher_distance": np.float64, "max_overlap": np.float64, "is_success": bool}
+
+
+def test_single_env_info_values_are_numpy_scalars_of_their_declared_dtype():
+    """float64 values, and ``is_success`` a Python bool: Gymnasium's ``SyncVectorEnv`` batches a numpy
+    bool into an object array (it makes typed arrays only for Python scalars and numpy numbers)."""
+    env = gym.make("PenaltyBalls-v0")
+    _, info = env.reset(seed=0)
+    for value in (info, env.step(np.zeros(2, np.float32))[4]):
+        assert {k: type(v) for k, v in value.items()} == INFO_DTYPES
+
+
+def test_vector_env_infos_are_arrays_of_their_declared_dtype():
+    venv = gym.make_vec("PenaltyBalls-v0", num_envs=3)
+    venv.reset(seed=0)
+    info = venv.step(np.zeros((3, 2), np.float32))[4]
+    for key, dtype in INFO_DTYPES.items():
+        assert info[key].dtype == np.dtype(dtype) and info[key].shape == (3,)
+        assert info["_" + key].dtype == np.bool_
+
+
+def test_sb3_infos_are_numpy_scalars_and_its_metadata_has_the_frame_rate(tmp_path):
+    from stable_baselines3.common.vec_env import VecVideoRecorder
+
+    from penalty_env.sb3 import make_vec_env
+
+    venv = make_vec_env("PenaltyBalls-v0", n_envs=2, seed=0, render_mode="rgb_array")
+    venv.reset()
+    infos = venv.step(np.zeros((2, 2), np.float32))[3]
+    assert {k: type(v) for k, v in infos[0].items() if k in INFO_DTYPES} == INFO_DTYPES
+    fps = gym.make("PenaltyBalls-v0").metadata["render_fps"]
+    assert venv.metadata["render_fps"] == fps == 25  # 1 / control_period
+    rec = VecVideoRecorder(venv, str(tmp_path), record_video_trigger=lambda step: step == 0, video_length=4)
+    assert rec.frames_per_sec == 25  # SB3 falls back to 30 without it
+    rec.reset()
+    for _ in range(5):
+        rec.step(np.zeros((2, 2), np.float32))
+    rec.close()
+    assert list(tmp_path.glob("*.mp4"))
+
+
+def test_gymnasium_vector_record_video_records_the_native_vector_env(tmp_path):
+    pytest.importorskip("moviepy")
+    from gymnasium.wrappers.vector import RecordVideo
+
+    venv = gym.make_vec("PenaltyBalls-v0", num_envs=3, render_mode="rgb_array")
+    frames = venv.render()
+    assert len(frames) == 3 and frames[0].shape == (256, 256, 3)
+    rec = RecordVideo(venv, str(tmp_path), episode_trigger=lambda e: e == 0, video_length=5)
+    rec.reset(seed=0)
+    for _ in range(6):
+        rec.step(np.zeros((3, 2), np.float32))
+    rec.close()
+    assert list(tmp_path.glob("*.mp4"))
