@@ -52,34 +52,38 @@ class TaskParams(NamedTuple):
     push_offset: float  # pusher radius + ball radius: the push point's distance behind the ball
 
 
+# rows of StepBuffers.info (in INFO_KEYS order); only this module indexes them, readers use the
+# named views (``StepBuffers.distance`` ...)
+_R_GOAL, _R_REACH, _R_SUCCESS, _R_DISTANCE, _R_PUSHER, _R_OVERLAP = range(len(_FLOAT_INFO))
+
+
 class StepBuffers(NamedTuple):
-    """What a step writes, per world: the observation, the reward and its terms, the info values,
-    the last distances (the shaping's potentials) and the physics status (0 ok)."""
+    """What a step writes, per world: the observation, the reward, the info values (its terms and
+    diagnostics, as rows of one block), the last distances (the shaping's potentials) and the
+    physics status (0 ok). Few arrays on purpose: each one costs Numba an unboxing per call."""
 
     obs: np.ndarray  # (B, obs_size) float32
     reward: np.ndarray  # (B,) float64
-    reward_goal: np.ndarray  # (B,) float64 rows of ``info``
-    reward_reach: np.ndarray
-    reward_success: np.ndarray
-    distance: np.ndarray  # ball-goal distance, m
-    pusher_distance: np.ndarray  # pusher-push point distance, m
-    max_overlap: np.ndarray  # the largest contact overlap / the smaller radius
+    info: np.ndarray  # (len(INFO_KEYS) - 1, B) float64: the float info values, rows in INFO_KEYS order
     success: np.ndarray  # (B,) bool
-    prev_distance: np.ndarray  # (B,) float64
-    prev_pusher_distance: np.ndarray
+    prev: np.ndarray  # (2, B) float64: the last ball-goal and pusher-push point distances
     status: np.ndarray  # (B,) int64
-    info: np.ndarray  # (len(INFO_KEYS) - 1, B) float64: the float info rows above, as one block
+
+    # the info rows by name
+    reward_goal = property(lambda self: self.info[_R_GOAL])
+    reward_reach = property(lambda self: self.info[_R_REACH])
+    reward_success = property(lambda self: self.info[_R_SUCCESS])
+    distance = property(lambda self: self.info[_R_DISTANCE])  # ball-goal distance, m
+    pusher_distance = property(lambda self: self.info[_R_PUSHER])  # pusher-push point distance, m
+    max_overlap = property(lambda self: self.info[_R_OVERLAP])  # the largest overlap / the smaller radius
 
 
 def new_buffers(n_worlds: int, obs_size: int) -> StepBuffers:
-    """Buffers for n_worlds worlds (the float info values are rows of one block, so the vector env
-    copies them out in one go)."""
-    info = np.zeros((len(_FLOAT_INFO), n_worlds))
-    rows = dict(zip(_FLOAT_INFO, info))
+    """Buffers for n_worlds worlds."""
     return StepBuffers(
         obs=np.zeros((n_worlds, obs_size), dtype=np.float32), reward=np.zeros(n_worlds),
-        success=np.zeros(n_worlds, dtype=np.bool_), prev_distance=np.zeros(n_worlds),
-        prev_pusher_distance=np.zeros(n_worlds), status=np.zeros(n_worlds, dtype=np.int64), info=info, **rows,
+        info=np.zeros((len(_FLOAT_INFO), n_worlds)), success=np.zeros(n_worlds, dtype=np.bool_),
+        prev=np.zeros((2, n_worlds)), status=np.zeros(n_worlds, dtype=np.int64),
     )
 
 
@@ -115,8 +119,9 @@ def _body(b, who, k, x, goal):
 
 
 @njit(inline="always")
-def observe(b, x, v, goal, obs, table, low, high, D):
-    """Write world b's observation by the layout ``table`` (rows kind, a, b), clipped to its bounds."""
+def observe(b, x, v, goal, obs, table, bounds, D):
+    """Write world b's observation by the layout ``table`` (rows kind, a, b), clipped to ``bounds``
+    ((2, size): low, high)."""
     for f in range(table.shape[0]):
         kind = table[f, 0]
         p = table[f, 1]
@@ -129,7 +134,7 @@ def observe(b, x, v, goal, obs, table, low, high, D):
                 val = v[b, p, k]
             else:  # DIFFERENCE
                 val = _body(b, p, k, x, goal) - _body(b, q, k, x, goal)
-            obs[b, idx] = _clip(val, low[idx], high[idx])
+            obs[b, idx] = _clip(val, bounds[0, idx], bounds[1, idx])
 
 
 @njit(inline="always")
@@ -171,12 +176,12 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, st
 
 
 @njit(nogil=True)
-def step_worlds(worlds, act, stepping, x, v, scratch, ids, model, friction, g, dt, substeps, task, table, low, high,
+def step_worlds(worlds, act, stepping, x, v, scratch, ids, model, friction, g, dt, substeps, task, table, bounds,
                 goal, buf):
     """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
     observe them without stepping). ``x``, ``v``, ``model``, ``friction`` and ``g`` are the
     World's own (``World.state``, ``World.model``); gravity's length D compiles the D-dimensional
-    code. ``table``, ``low``, ``high``: the observation layout and its bounds."""
+    code. ``table``, ``bounds``: the observation layout and its bounds."""
     n_lanes = ids.shape[0]
     na = act.shape[1]
     status = buf.status
@@ -208,28 +213,30 @@ def step_worlds(worlds, act, stepping, x, v, scratch, ids, model, friction, g, d
         if status[b] != 0:
             continue
         dg, dp = _distances(b, x, goal, task, D)
-        observe(b, x, v, goal, buf.obs, table, low, high, D)
-        buf.max_overlap[b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, None, model, None, g)
-        buf.distance[b] = dg
-        buf.pusher_distance[b] = dp
+        observe(b, x, v, goal, buf.obs, table, bounds, D)
+        info = buf.info
+        info[_R_OVERLAP, b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, None, model, None, g)
+        info[_R_DISTANCE, b] = dg
+        info[_R_PUSHER, b] = dp
+        prev = buf.prev
         if stepping[b]:
             success = dg < task.goal_tolerance
-            r_goal = task.w_goal * (buf.prev_distance[b] - dg)
-            r_reach = task.w_reach * (buf.prev_pusher_distance[b] - dp)
+            r_goal = task.w_goal * (prev[0, b] - dg)
+            r_reach = task.w_reach * (prev[1, b] - dp)
             r_success = task.success_bonus if success else 0.0
-            buf.reward_goal[b] = r_goal
-            buf.reward_reach[b] = r_reach
-            buf.reward_success[b] = r_success
+            info[_R_GOAL, b] = r_goal
+            info[_R_REACH, b] = r_reach
+            info[_R_SUCCESS, b] = r_success
             buf.reward[b] = r_goal + r_reach + r_success
             buf.success[b] = success
         else:  # a world just reset: its observation, no reward
-            buf.reward_goal[b] = 0.0
-            buf.reward_reach[b] = 0.0
-            buf.reward_success[b] = 0.0
+            info[_R_GOAL, b] = 0.0
+            info[_R_REACH, b] = 0.0
+            info[_R_SUCCESS, b] = 0.0
             buf.reward[b] = 0.0
             buf.success[b] = False
-        buf.prev_distance[b] = dg
-        buf.prev_pusher_distance[b] = dp
+        prev[0, b] = dg
+        prev[1, b] = dp
     return bad
 
 

@@ -227,7 +227,11 @@ class PenaltyBallsScene:
         state, model = self.world.state, self.world.model
         self._state = (state.positions, state.velocities)
         self._tail = (model, model.friction, model.gravity, self.dt, self.substeps, self.task, self.layout.table,
-                      self.layout.low, self.layout.high, self.goal, self.buffers)
+                      np.stack([self.layout.low, self.layout.high]), self.goal, self.buffers)
+        # the arguments of a whole-batch step, made once, and the kernel compiled for their types
+        # (called without Numba's per-call type resolution: the arguments are fixed)
+        self._step_calls = self._calls(self._chunks)
+        self._step_kernel = _runner.entry_point(KE.step_worlds, self._step_calls[0])
 
     # ------------------------------------------------------------------ construction helpers
     def _placeholder_positions(self) -> np.ndarray:
@@ -251,11 +255,16 @@ class PenaltyBallsScene:
         ``self.actions``; observe every world (a world with the flag off was just reset)."""
         self._run(self._all, self._chunks)
 
-    def _run(self, worlds: np.ndarray, chunks: Sequence[np.ndarray]) -> None:
+    def _calls(self, chunks: Sequence[np.ndarray]) -> list[tuple]:
         x, v = self._state
         head = (self.actions, self.stepping, x, v)
-        codes = _runner.dispatch(KE.step_worlds, [(c,) + head + (self._lane_scratch[i], self._lane_ids[i]) + self._tail
-                                                  for i, c in enumerate(chunks)])
+        return [(c,) + head + (self._lane_scratch[i], self._lane_ids[i]) + self._tail for i, c in enumerate(chunks)]
+
+    def _run(self, worlds: np.ndarray, chunks: Sequence[np.ndarray]) -> None:
+        if chunks is self._chunks:
+            codes = _runner.dispatch(self._step_kernel, self._step_calls)
+        else:
+            codes = _runner.dispatch(KE.step_worlds, self._calls(chunks))
         code = min(codes) if min(codes) < 0 else sum(codes)
         if code != KE.OK:
             self._raise(code)
@@ -362,15 +371,9 @@ class PenaltyBallsScene:
         """World b's info dict of the last step or reset: numpy float64 scalars, and ``is_success``
         a Python bool (Gymnasium's own vector envs batch a numpy bool into an object array)."""
         buf = self.buffers
-        return {
-            "reward_goal": buf.reward_goal[b],
-            "reward_reach": buf.reward_reach[b],
-            "reward_success": buf.reward_success[b],
-            "distance": buf.distance[b],
-            "pusher_distance": buf.pusher_distance[b],
-            "max_overlap": buf.max_overlap[b],
-            "is_success": bool(buf.success[b]),
-        }
+        info = dict(zip(KE.INFO_KEYS, buf.info[:, b]))  # iterating a float64 array gives its scalars
+        info["is_success"] = bool(buf.success[b])
+        return info
 
     def describe(self) -> str:
         """The derived physics, one line."""

@@ -32,7 +32,7 @@ from . import integrators as _integrators
 from . import lanes as _lanes
 from .neighbour_list import EXPLICIT_EULER, SYMPLECTIC_EULER, NeighbourLists
 
-__all__ = ["PATHS", "PARALLEL_MIN_WORK", "thread_count", "pool", "split", "dispatch", "Runner"]
+__all__ = ["PATHS", "PARALLEL_MIN_WORK", "thread_count", "pool", "split", "dispatch", "entry_point", "Runner"]
 
 PATHS = ("scalar", "lanes", "neighbour_list")
 
@@ -92,6 +92,15 @@ def split(items: int | np.ndarray, work_per_item: int, align: int = 1) -> list:
     return [(int(b0), int(b1)) for b0, b1 in zip(bounds[:-1], bounds[1:])]
 
 
+def entry_point(fn: Any, args: tuple) -> Callable:
+    """The compiled function of Numba dispatcher ``fn`` for these arguments' types (compiled or
+    loaded from the cache now), to call without Numba's per-call type resolution: that costs about
+    a microsecond for each field of a NamedTuple argument, as much as a small world's whole step.
+    Only for calls whose argument types are fixed by construction: the entry point does not check
+    them again."""
+    return fn.compile(tuple(fn.typeof_pyval(a) for a in args))
+
+
 def dispatch(fn: Callable, arg_lists: Sequence[tuple]) -> list:
     """Call ``fn(*args)`` for each entry: inline when there is one, else on the pool (the kernels
     release the GIL). Returns the results in order."""
@@ -124,6 +133,7 @@ class Runner:
         self.lane_scratch = np.zeros((thread_count(), 5, n, d, _lanes.LANES)) if path == "lanes" else None
         self.lists = NeighbourLists(model, B, n, d, thread_count()) if path == "neighbour_list" else None
         self.friction, self.g = model.friction, model.gravity  # as the kernels take them
+        self._entries: dict[bool, Callable] = {}  # compiled step kernels, by whether ext is None
 
     def forget(self, worlds: Any = slice(None)) -> None:
         """Drop what was derived from the state of ``worlds`` (velocity Verlet's cached acceleration,
@@ -147,14 +157,21 @@ class Runner:
         if self.path == "lanes":
             sym = self.integrator == "symplectic_euler"
             ranges = split(B, balls * n, align=_lanes.LANES)
-            dispatch(_lanes.run_lanes, [(sym, b0, b1, n, self.dt, x, v, self.lane_scratch[i], ext, model, friction, g,
-                                         self.status) for i, (b0, b1) in enumerate(ranges)])
-            return
-        ranges = split(B, balls * n)
-        if self.events:
-            tail = (self.work, ext, self.grid, model, friction, g, self.event_buffers, self.status)
-            fn = _events.run_worlds
+            calls = [(sym, b0, b1, n, self.dt, x, v, self.lane_scratch[i], ext, model, friction, g, self.status)
+                     for i, (b0, b1) in enumerate(ranges)]
+            fn = _lanes.run_lanes
         else:
-            tail = (self.work, ext, self.grid, model, friction, g, self.status)
-            fn = _integrators.run_worlds
-        dispatch(fn, [(b0, b1, n, self.dt, x, v) + tail for b0, b1 in ranges])
+            ranges = split(B, balls * n)
+            if self.events:
+                tail = (self.work, ext, self.grid, model, friction, g, self.event_buffers, self.status)
+                fn = _events.run_worlds
+            else:
+                tail = (self.work, ext, self.grid, model, friction, g, self.status)
+                fn = _integrators.run_worlds
+            calls = [(b0, b1, n, self.dt, x, v) + tail for b0, b1 in ranges]
+        # the argument types are fixed by the World (only the external force may be None or not):
+        # call the compiled kernel without Numba's per-call type resolution
+        entry = self._entries.get(ext is None)
+        if entry is None:
+            entry = self._entries[ext is None] = entry_point(fn, calls[0])
+        dispatch(entry, calls)
