@@ -40,8 +40,9 @@ def describe(value: Any, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def real_array(name: str, value: Any, ndim: Sequence[int] | None = None, shape: tuple | None = None,
-               finite: bool = True) -> np.ndarray:
+def real_array(
+    name: str, value: Any, ndim: Sequence[int] | None = None, shape: tuple | None = None, finite: bool = True
+) -> np.ndarray:
     """``value`` as a new float64 array. Refuses strings, objects, ragged nesting, a wrong number of
     dimensions or shape, and (``finite``) NaN or inf, naming ``name``."""
     if isinstance(value, (str, bytes)):

@@ -14,7 +14,11 @@ def starter_scene(**overrides) -> World:
     """Four unit-mass particles in a 2D bowl (centre (0, 8), radius 8), gravity (0, -1),
     ks = 200, kd = 5, dt = 0.02, symplectic Euler: the course's starter code."""
     kwargs = dict(
-        terrain=(Bowl((0.0, 8.0), 8.0),), gravity=(0.0, -1.0), ks=2e2, kd=5.0, dt=0.02,
+        terrain=(Bowl((0.0, 8.0), 8.0),),
+        gravity=(0.0, -1.0),
+        ks=2e2,
+        kd=5.0,
+        dt=0.02,
         integrator="symplectic_euler",
     )
     kwargs.update(overrides)

@@ -55,12 +55,17 @@ class PenaltyBallsVecEnv(VecEnv):
         render_mode: str | None = None,
         **kwargs: Any,
     ) -> None:
-        if isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, (int, np.integer)) or max_episode_steps < 1:
+        if (
+            isinstance(max_episode_steps, bool)
+            or not isinstance(max_episode_steps, (int, np.integer))
+            or max_episode_steps < 1
+        ):
             raise ValueError(f"max_episode_steps must be an int >= 1, got {max_episode_steps!r}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.scene = PenaltyBallsScene(V.integer("n_envs", n_envs, 1), dim=dim, owner="PenaltyBallsVecEnv.__init__",
-                                       **kwargs)
+        self.scene = PenaltyBallsScene(
+            V.integer("n_envs", n_envs, 1), dim=dim, owner="PenaltyBallsVecEnv.__init__", **kwargs
+        )
         self._never = np.zeros(n_envs, dtype=np.bool_)
         self.render_mode = render_mode
         self.max_episode_steps = int(max_episode_steps)
@@ -137,8 +142,9 @@ class PenaltyBallsVecEnv(VecEnv):
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         setattr(self, attr_name, value)
 
-    def env_method(self, method_name: str, *method_args: Any, indices: VecEnvIndices = None,
-                   **method_kwargs: Any) -> list[Any]:
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
+    ) -> list[Any]:
         method = getattr(self, method_name)
         return [method(*method_args, **method_kwargs) for _ in self._get_indices(indices)]
 

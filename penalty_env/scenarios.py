@@ -21,17 +21,42 @@ import numpy as np
 from .physics import Bowl, World, theory
 from .physics import events as EV
 
-__all__ = ["balls_in_bowl", "packed_bowl", "large_world", "scene_params", "Measure", "pair_collision", "bowl_drop",
-           "resting", "pile_scene", "pile_params", "elastic_pile", "damped_pile", "pile_reference",
-           "count_pile_contacts", "PHASES"]
+__all__ = [
+    "balls_in_bowl",
+    "packed_bowl",
+    "large_world",
+    "scene_params",
+    "Measure",
+    "pair_collision",
+    "bowl_drop",
+    "resting",
+    "pile_scene",
+    "pile_params",
+    "elastic_pile",
+    "damped_pile",
+    "pile_reference",
+    "count_pile_contacts",
+    "PHASES",
+]
 
 PHASES = 1024  # start phases of the collision scenarios (worst case over them)
 
 
-def balls_in_bowl(n: int, d: int = 3, worlds: int = 1, seed: int = 0, radius: float | np.ndarray = 0.1,
-                  bowl_radius: float = 1.0, spacing: float = 0.01, min_height: float | None = None,
-                  speed: float = 0.0, mass: float | np.ndarray = 1.0, lattice: bool = False, lift: float = 0.3,
-                  jitter: float = 0.002):
+def balls_in_bowl(
+    n: int,
+    d: int = 3,
+    worlds: int = 1,
+    seed: int = 0,
+    radius: float | np.ndarray = 0.1,
+    bowl_radius: float = 1.0,
+    spacing: float = 0.01,
+    min_height: float | None = None,
+    speed: float = 0.0,
+    mass: float | np.ndarray = 1.0,
+    lattice: bool = False,
+    lift: float = 0.3,
+    jitter: float = 0.002,
+):
     """n balls inside a bowl of radius ``bowl_radius`` whose floor touches the origin, ``worlds``
     independent draws: scattered without overlap (rejection sampling, at least ``spacing`` apart
     and from the wall, centres above ``min_height``), or with ``lattice`` on a cubic lattice of
@@ -116,8 +141,16 @@ def large_world(n: int, broadphase: str = "grid") -> World:
     pos, bowl = packed_bowl(n, 3, radius)
     ks, kd = scene_params(radius, mass)
     probe = World(pos[:2], [radius] * 2, [mass] * 2, terrain=(bowl,), ks=ks, kd=kd, dt=1.0, allow_unstable=True)
-    return World(pos, np.full(n, radius), np.full(n, mass), terrain=(bowl,), ks=ks, kd=kd,
-                 dt=probe.stability_limit(), broadphase=broadphase)
+    return World(
+        pos,
+        np.full(n, radius),
+        np.full(n, mass),
+        terrain=(bowl,),
+        ks=ks,
+        kd=kd,
+        dt=probe.stability_limit(),
+        broadphase=broadphase,
+    )
 
 
 # scenario constants ------------------------------------------------------------------------
@@ -152,8 +185,22 @@ class Measure:
 
 
 def _world(x, v, radii, masses, *, integrator, events, damping, ks, kd, dt, gravity, terrain=(), **kw):
-    return World(x, radii, masses, v, terrain=terrain, gravity=gravity, ks=ks, kd=kd, damping=damping,
-                 integrator=integrator, dt=dt, allow_unstable=True, events=events, **kw)
+    return World(
+        x,
+        radii,
+        masses,
+        v,
+        terrain=terrain,
+        gravity=gravity,
+        ks=ks,
+        kd=kd,
+        damping=damping,
+        integrator=integrator,
+        dt=dt,
+        allow_unstable=True,
+        events=events,
+        **kw,
+    )
 
 
 def _cost(w: World, nsteps: int, wall: float) -> tuple[float, float, float, int, float]:
@@ -211,8 +258,21 @@ def _hermite_peak(d0, r0, d1, r1, h):
 # --------------------------------------------------------------------------------------------
 
 
-def pair_collision(integrator, events, damping, zeta, spc, phases=PHASES, *, masses=PAIR_MASSES,
-                   radii=PAIR_RADII, ks=PAIR_KS, speed=PAIR_SPEED, kd=None, dt=None) -> Measure:
+def pair_collision(
+    integrator,
+    events,
+    damping,
+    zeta,
+    spc,
+    phases=PHASES,
+    *,
+    masses=PAIR_MASSES,
+    radii=PAIR_RADII,
+    ks=PAIR_KS,
+    speed=PAIR_SPEED,
+    kd=None,
+    dt=None,
+) -> Measure:
     """Head-on collision along x, gravity off, one world per start phase. Errors: ``restitution``,
     ``duration`` (relative, worst over phases) and ``peak_overlap`` (relative to the exact peak;
     ``peak_ratio`` in extra: the worst peak overlap / the smaller radius)."""
@@ -234,8 +294,16 @@ def pair_collision(integrator, events, damping, zeta, spc, phases=PHASES, *, mas
     v[:, 0, 0] = speed * m2 / (m1 + m2)
     v[:, 1, 0] = -speed * m1 / (m1 + m2)
     n_steps = int(math.ceil((1.6 * exact.duration / omega) / dt)) + 8
-    kw = dict(integrator=integrator, events=events, damping=damping, ks=ks, kd=kd, dt=dt,
-              gravity=(0.0, 0.0, 0.0), broadphase="all_pairs")
+    kw = dict(
+        integrator=integrator,
+        events=events,
+        damping=damping,
+        ks=ks,
+        kd=kd,
+        dt=dt,
+        gravity=(0.0, 0.0, 0.0),
+        broadphase="all_pairs",
+    )
     l0 = radii[0] + radii[1]
     peak = np.zeros(phases)
     prev = {"d": -gaps, "r": np.full(phases, speed)}
@@ -258,8 +326,9 @@ def pair_collision(integrator, events, damping, zeta, spc, phases=PHASES, *, mas
         t_begin = gaps / speed
         ok = bool(np.all(np.isfinite(e_num)))
     if not ok:
-        return Measure({"restitution": math.inf, "duration": math.inf, "peak_overlap": math.inf}, True,
-                       math.nan, math.nan)
+        return Measure(
+            {"restitution": math.inf, "duration": math.inf, "peak_overlap": math.inf}, True, math.nan, math.nan
+        )
     separated = (gap_end > 0) & (u > 0)
     e_err = np.abs(e_num / exact.restitution - 1.0)
     tc_err = np.where(separated, np.abs((t_end - t_begin) * omega / exact.duration - 1.0), 1.0)
@@ -270,8 +339,12 @@ def pair_collision(integrator, events, damping, zeta, spc, phases=PHASES, *, mas
     cost = _cost(w2, n_steps, wall if wall is not None else math.nan)
     errors = {"restitution": float(e_err.max()), "duration": float(tc_err.max()), "peak_overlap": float(pk_err.max())}
     diverged = not all(math.isfinite(e) for e in errors.values()) or errors["restitution"] > 1.0
-    return Measure(errors, diverged, *cost,
-                   extra={"peak_ratio": float(peak.max() / min(radii)), "separated": bool(separated.all())})
+    return Measure(
+        errors,
+        diverged,
+        *cost,
+        extra={"peak_ratio": float(peak.max() / min(radii)), "separated": bool(separated.all())},
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -279,8 +352,22 @@ def pair_collision(integrator, events, damping, zeta, spc, phases=PHASES, *, mas
 # --------------------------------------------------------------------------------------------
 
 
-def bowl_drop(integrator, events, damping, zeta, spc, phases=PHASES, *, mass=DROP_MASS, radius=DROP_RADIUS,
-              ks=DROP_KS, speed=DROP_SPEED, g=G, kd=None, dt=None) -> Measure:
+def bowl_drop(
+    integrator,
+    events,
+    damping,
+    zeta,
+    spc,
+    phases=PHASES,
+    *,
+    mass=DROP_MASS,
+    radius=DROP_RADIUS,
+    ks=DROP_KS,
+    speed=DROP_SPEED,
+    g=G,
+    kd=None,
+    dt=None,
+) -> Measure:
     """Ball falling along the bowl's axis, arriving at the floor at ``speed`` at phase k/phases of
     the second step. Errors: rebound ``restitution`` (speed at the floor on the way up, from the
     first state after the contact, by energy in free flight) and ``peak_overlap``, against the exact
@@ -302,8 +389,16 @@ def bowl_drop(integrator, events, damping, zeta, spc, phases=PHASES, *, mass=DRO
     x[:, 0, 2] = radius + h0
     v[:, 0, 2] = -v0
     n_steps = int(math.ceil(1.6 * exact.duration / omega / dt)) + 8
-    kw = dict(integrator=integrator, events=events, damping=damping, ks=ks, kd=kd, dt=dt,
-              gravity=(0.0, 0.0, -g), terrain=(BOWL,))
+    kw = dict(
+        integrator=integrator,
+        events=events,
+        damping=damping,
+        ks=ks,
+        kd=kd,
+        dt=dt,
+        gravity=(0.0, 0.0, -g),
+        terrain=(BOWL,),
+    )
     peak = np.zeros(phases)
     v_exit = np.full(phases, np.nan)
     state = {"d": -h0, "r": v0.copy(), "touched": np.zeros(phases, dtype=bool)}
@@ -338,8 +433,21 @@ def bowl_drop(integrator, events, damping, zeta, spc, phases=PHASES, *, mass=DRO
 # --------------------------------------------------------------------------------------------
 
 
-def resting(integrator, events, damping, zeta, spc, phases=16, *, mass=DROP_MASS, radius=DROP_RADIUS,
-            ks=DROP_KS, g=G, kd=None, dt=None) -> Measure:
+def resting(
+    integrator,
+    events,
+    damping,
+    zeta,
+    spc,
+    phases=16,
+    *,
+    mass=DROP_MASS,
+    radius=DROP_RADIUS,
+    ks=DROP_KS,
+    g=G,
+    kd=None,
+    dt=None,
+) -> Measure:
     """A ball set down (from rest, a fraction of g dt^2 above the floor) settles at the overlap
     m g / ks. Error: |overlap / (m g / ks) - 1| after 25 / (zeta omega0) (the exact transient has
     decayed below 1e-10 by then). Needs zeta > 0."""
@@ -358,8 +466,16 @@ def resting(integrator, events, damping, zeta, spc, phases=16, *, mass=DROP_MASS
     x[:, 0, 2] = radius + ph * g * dt * dt
     v = np.zeros_like(x)
     n_steps = int(math.ceil(25.0 / (zeta * omega) / dt))
-    kw = dict(integrator=integrator, events=events, damping=damping, ks=ks, kd=kd, dt=dt,
-              gravity=(0.0, 0.0, -g), terrain=(BOWL,))
+    kw = dict(
+        integrator=integrator,
+        events=events,
+        damping=damping,
+        ks=ks,
+        kd=kd,
+        dt=dt,
+        gravity=(0.0, 0.0, -g),
+        terrain=(BOWL,),
+    )
     w = _world(x, v, [radius], [mass], **kw)
     wall = _timed_steps(w, n_steps)
     if wall is None:
@@ -412,8 +528,20 @@ def pile_params(zeta):
 def _pile_world(integrator, events, damping, zeta, dt, x, v):
     ks, kd, _ = pile_params(zeta)
     n = x.shape[1]
-    return _world(x, v, np.full(n, PILE_RADIUS), np.full(n, PILE_MASS), integrator=integrator, events=events,
-                  damping=damping, ks=ks, kd=kd, dt=dt, gravity=(0.0, 0.0, -G), terrain=(PILE_BOWL,))
+    return _world(
+        x,
+        v,
+        np.full(n, PILE_RADIUS),
+        np.full(n, PILE_MASS),
+        integrator=integrator,
+        events=events,
+        damping=damping,
+        ks=ks,
+        kd=kd,
+        dt=dt,
+        gravity=(0.0, 0.0, -G),
+        terrain=(PILE_BOWL,),
+    )
 
 
 def elastic_pile(integrator, events, spc, *, t_end=PILE_T_ELASTIC, worlds=PILE_WORLDS) -> Measure:
@@ -450,8 +578,9 @@ def pile_reference(damping, zeta, spc_ref, t_end=PILE_T_DAMPED, worlds=PILE_WORL
     return _REFERENCE_CACHE[key]
 
 
-def damped_pile(integrator, events, damping, zeta, spc, *, spc_reference, t_end=PILE_T_DAMPED,
-                worlds=PILE_WORLDS) -> Measure:
+def damped_pile(
+    integrator, events, damping, zeta, spc, *, spc_reference, t_end=PILE_T_DAMPED, worlds=PILE_WORLDS
+) -> Measure:
     """Position error after t_end contact durations against the reference, RMS over balls / radius, worst over worlds."""
     _, _, tc = pile_params(zeta)
     dt = tc / spc

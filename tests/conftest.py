@@ -169,9 +169,17 @@ def _crossing_times(overlaps: np.ndarray, dt: float):
 
 
 @functools.cache
-def collision_sweep(geometry: str, integrator: str, zeta: float, steps_per_contact: float, d: int,
-                    phases: int = 1024, damping: str = "linear", offset: float = 0.0,
-                    options: tuple = ()) -> CollisionSweep:
+def collision_sweep(
+    geometry: str,
+    integrator: str,
+    zeta: float,
+    steps_per_contact: float,
+    d: int,
+    phases: int = 1024,
+    damping: str = "linear",
+    offset: float = 0.0,
+    options: tuple = (),
+) -> CollisionSweep:
     """Collide every probe of ``geometry`` ("pairs" or "terrain") with damping ratio ``zeta``, gravity
     off, dt = t_c / steps_per_contact, once per start phase (the B worlds of one World).
 
@@ -187,11 +195,24 @@ def collision_sweep(geometry: str, integrator: str, zeta: float, steps_per_conta
     gaps = APPROACH_SPEED * dt * (1.0 + phase)
     build = {"pairs": _pair_scene, "terrain": _terrain_scene}[geometry]
     x, v, radii, masses, terrain, probes = build(d, gaps)
-    world = World(x, radii, masses, v, terrain=terrain, gravity=np.zeros(d), ks=KS, kd=kd,
-                  damping=damping, integrator=integrator, dt=dt, broadphase="all_pairs",
-                  # isolated contacts, so the guard's margin for balls in many contacts at once (a pile)
-                  # does not apply; explicit Euler is refused outright when undamped
-                  allow_unstable=True, **dict(options))
+    world = World(
+        x,
+        radii,
+        masses,
+        v,
+        terrain=terrain,
+        gravity=np.zeros(d),
+        ks=KS,
+        kd=kd,
+        damping=damping,
+        integrator=integrator,
+        dt=dt,
+        broadphase="all_pairs",
+        # isolated contacts, so the guard's margin for balls in many contacts at once (a pile)
+        # does not apply; explicit Euler is refused outright when undamped
+        allow_unstable=True,
+        **dict(options),
+    )
     n_steps = int(math.ceil(1.3 * steps_per_contact)) + 6
     overlaps = {p.name: np.empty((n_steps + 1, phases)) for p in probes}
     for k in range(n_steps + 1):
@@ -205,8 +226,9 @@ def collision_sweep(geometry: str, integrator: str, zeta: float, steps_per_conta
         t0, t1 = _crossing_times(overlaps[p.name], dt)
         tc_meas[p.name] = t1 - t0
         e_meas[p.name] = p.separating_speed(world.positions, world.velocities) / APPROACH_SPEED
-    return CollisionSweep(integrator, zeta, steps_per_contact, dt, phase,
-                          theory.restitution(KS, kd, M_EFF), tc, e_meas, tc_meas)
+    return CollisionSweep(
+        integrator, zeta, steps_per_contact, dt, phase, theory.restitution(KS, kd, M_EFF), tc, e_meas, tc_meas
+    )
 
 
 @pytest.fixture(scope="session")
@@ -256,8 +278,18 @@ def floor_oscillator(integrator, omega_dt, zeta=0.0, displacement=0.05, d=3, all
     rest = m * g / ks
     x = np.zeros((1, d))
     x[0, -1] = r - rest
-    world = World(x, [r], [m], terrain=Bowl(tuple(center), R), gravity=gravity, ks=ks, kd=kd,
-                  integrator=integrator, dt=omega_dt / omega, allow_unstable=allow_unstable)
+    world = World(
+        x,
+        [r],
+        [m],
+        terrain=Bowl(tuple(center), R),
+        gravity=gravity,
+        ks=ks,
+        kd=kd,
+        integrator=integrator,
+        dt=omega_dt / omega,
+        allow_unstable=allow_unstable,
+    )
     e_rest = world.energy()
     x[0, -1] = r - rest * (1.0 + displacement)
     world.set_state(positions=x, velocities=np.zeros((1, d)))

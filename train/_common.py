@@ -93,8 +93,16 @@ def model_policy(model, vecnorm=None) -> Callable[[np.ndarray], np.ndarray]:
     return act
 
 
-def record_gif(env_id: str, env_kwargs: dict[str, Any], act, path: Path, seed: int, episodes: int = 2,
-               fps: int = 20, max_frames: int = 400) -> int:
+def record_gif(
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    act,
+    path: Path,
+    seed: int,
+    episodes: int = 2,
+    fps: int = 20,
+    max_frames: int = 400,
+) -> int:
     """Roll out ``act`` in a single rendered env and save the frames as a GIF (Pillow)."""
     import gymnasium as gym
     from PIL import Image
@@ -113,7 +121,7 @@ def record_gif(env_id: str, env_kwargs: dict[str, Any], act, path: Path, seed: i
             frames.append(env.render())
             done = terminated or truncated
     env.close()
-    images = [Image.fromarray(f) for f in frames[::max(1, math.ceil(len(frames) / max_frames))]]
+    images = [Image.fromarray(f) for f in frames[:: max(1, math.ceil(len(frames) / max_frames))]]
     path.parent.mkdir(parents=True, exist_ok=True)
     images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0, optimize=True)
     return len(images)

@@ -21,7 +21,9 @@ import _common as C  # noqa: E402
 
 
 def main(argv=None) -> dict:
-    p = argparse.ArgumentParser(prog="evaluate.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="evaluate.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("run", type=Path, help="run folder (model.zip, vecnormalize.pkl, summary.json)")
     p.add_argument("--episodes", type=int, default=100, help="episodes (default: %(default)s)")
     p.add_argument("--seed", type=int, default=3_000_000, help="first seed (default: %(default)s, unused by training)")
@@ -45,9 +47,11 @@ def main(argv=None) -> dict:
     trained = C.run_episodes(venv, C.model_policy(model, vecnorm), args.episodes)
     probe = C.make_env(env_id, n_envs, args.seed, env_kwargs)
     rand = C.run_episodes(probe, C.random_policy(probe.action_space, args.seed), args.episodes)
-    print(f"{env_id}: success {trained['success_rate']:.1%}, mean return {trained['mean_return']:.3f} "
-          f"± {trained['std_return']:.3f} over {trained['episodes']} episodes (seeds {args.seed}..{args.seed + n_envs - 1}); "
-          f"random policy: success {rand['success_rate']:.1%}, mean return {rand['mean_return']:.3f}")
+    print(
+        f"{env_id}: success {trained['success_rate']:.1%}, mean return {trained['mean_return']:.3f} "
+        f"± {trained['std_return']:.3f} over {trained['episodes']} episodes (seeds {args.seed}..{args.seed + n_envs - 1}); "
+        f"random policy: success {rand['success_rate']:.1%}, mean return {rand['mean_return']:.3f}"
+    )
     if args.video:
         C.record_gif(env_id, env_kwargs, C.model_policy(model, vecnorm), args.video, seed=args.seed)
         print(f"video: {args.video}")

@@ -57,29 +57,65 @@ def build_parser() -> argparse.ArgumentParser:
     )
     d = DEFAULTS
     p.add_argument("--env-id", default=d["env_id"], help="registered env id (default: %(default)s)")
-    p.add_argument("--env-kwarg", action="append", default=[], metavar="KEY=VALUE",
-                   help="env keyword argument, repeatable; VALUE parsed as JSON (e.g. n_obstacles=2)")
+    p.add_argument(
+        "--env-kwarg",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="env keyword argument, repeatable; VALUE parsed as JSON (e.g. n_obstacles=2)",
+    )
     p.add_argument("--timesteps", type=int, default=d["timesteps"], help="environment steps (default: %(default)s)")
     p.add_argument("--n-envs", type=int, default=d["n_envs"], help="parallel worlds (default: %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the worlds, the policy and torch (default: %(default)s)")
+    p.add_argument(
+        "--seed", type=int, default=0, help="seed of the worlds, the policy and torch (default: %(default)s)"
+    )
     p.add_argument("--out", type=Path, default=None, help="run folder (default: runs/ppo-<env>-seed<seed>)")
-    p.add_argument("--n-steps", type=int, default=d["n_steps"], help="PPO rollout length per world (default: %(default)s)")
+    p.add_argument(
+        "--n-steps", type=int, default=d["n_steps"], help="PPO rollout length per world (default: %(default)s)"
+    )
     p.add_argument("--batch-size", type=int, default=d["batch_size"], help="PPO minibatch (default: %(default)s)")
     p.add_argument("--n-epochs", type=int, default=d["n_epochs"], help="PPO epochs per update (default: %(default)s)")
-    p.add_argument("--learning-rate", type=float, default=d["learning_rate"], help="Adam step size, linearly decayed (default: %(default)s)")
+    p.add_argument(
+        "--learning-rate",
+        type=float,
+        default=d["learning_rate"],
+        help="Adam step size, linearly decayed (default: %(default)s)",
+    )
     p.add_argument("--gamma", type=float, default=d["gamma"], help="discount (default: %(default)s)")
     p.add_argument("--gae-lambda", type=float, default=d["gae_lambda"], help="GAE lambda (default: %(default)s)")
     p.add_argument("--ent-coef", type=float, default=d["ent_coef"], help="entropy bonus (default: %(default)s)")
     p.add_argument("--clip-range", type=float, default=d["clip_range"], help="PPO clip (default: %(default)s)")
-    p.add_argument("--net-arch", default=d["net_arch"], help="hidden layer sizes, comma separated (default: %(default)s)")
+    p.add_argument(
+        "--net-arch", default=d["net_arch"], help="hidden layer sizes, comma separated (default: %(default)s)"
+    )
     p.add_argument("--no-normalize", action="store_true", help="disable VecNormalize")
-    p.add_argument("--eval-freq", type=int, default=d["eval_freq"], help="env steps between evaluations (default: %(default)s)")
-    p.add_argument("--eval-episodes", type=int, default=d["eval_episodes"], help="episodes per evaluation during training (default: %(default)s)")
-    p.add_argument("--final-episodes", type=int, default=d["final_episodes"], help="episodes of the final held-out evaluation (default: %(default)s)")
-    p.add_argument("--tensorboard", type=Path, default=None, metavar="DIR", help="TensorBoard log folder (needs tensorboard installed)")
+    p.add_argument(
+        "--eval-freq", type=int, default=d["eval_freq"], help="env steps between evaluations (default: %(default)s)"
+    )
+    p.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=d["eval_episodes"],
+        help="episodes per evaluation during training (default: %(default)s)",
+    )
+    p.add_argument(
+        "--final-episodes",
+        type=int,
+        default=d["final_episodes"],
+        help="episodes of the final held-out evaluation (default: %(default)s)",
+    )
+    p.add_argument(
+        "--tensorboard",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="TensorBoard log folder (needs tensorboard installed)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-gif", action="store_true", help="skip the GIF of the trained policy")
-    p.add_argument("--threads", type=int, default=1, help="torch threads (default: %(default)s: the physics uses the other core)")
+    p.add_argument(
+        "--threads", type=int, default=1, help="torch threads (default: %(default)s: the physics uses the other core)"
+    )
     return p
 
 
@@ -112,15 +148,20 @@ def main(argv=None) -> dict:
         def _on_step(self) -> bool:
             cont = super()._on_step()
             if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:  # an evaluation just ran
-                curve.append({
-                    "timesteps": int(self.num_timesteps),
-                    "success_rate": float(np.mean(self._is_success_buffer)) if self._is_success_buffer else 0.0,
-                    "mean_return": float(self.last_mean_reward),
-                    "wall_time_s": time.perf_counter() - t0,
-                })
+                curve.append(
+                    {
+                        "timesteps": int(self.num_timesteps),
+                        "success_rate": float(np.mean(self._is_success_buffer)) if self._is_success_buffer else 0.0,
+                        "mean_return": float(self.last_mean_reward),
+                        "wall_time_s": time.perf_counter() - t0,
+                    }
+                )
                 if args.no_progress:
                     c = curve[-1]
-                    print(f"[eval] steps={c['timesteps']:>9,} success={c['success_rate']:.2f} return={c['mean_return']:.2f}", flush=True)
+                    print(
+                        f"[eval] steps={c['timesteps']:>9,} success={c['success_rate']:.2f} return={c['mean_return']:.2f}",
+                        flush=True,
+                    )
             return cont
 
     eval_cb = CurveCallback(
@@ -149,8 +190,11 @@ def main(argv=None) -> dict:
         device="cpu",
         verbose=0,
     )
-    print(f"training PPO on {args.env_id} {env_kwargs or ''}: {args.timesteps:,} steps, "
-          f"{args.n_envs} worlds, seed {args.seed} -> {out}", flush=True)
+    print(
+        f"training PPO on {args.env_id} {env_kwargs or ''}: {args.timesteps:,} steps, "
+        f"{args.n_envs} worlds, seed {args.seed} -> {out}",
+        flush=True,
+    )
     t0 = time.perf_counter()
     model.learn(total_timesteps=args.timesteps, callback=eval_cb, progress_bar=not args.no_progress)
     wall = time.perf_counter() - t0
@@ -163,8 +207,11 @@ def main(argv=None) -> dict:
     # final evaluation on held-out seeds, and a random policy on the very same seeds
     final_seed = C.FINAL_SEED_OFFSET + args.seed
     n_eval_envs = min(20, args.final_episodes)
-    trained = C.run_episodes(C.make_env(args.env_id, n_eval_envs, final_seed, env_kwargs),
-                             C.model_policy(model, vecnorm), args.final_episodes)
+    trained = C.run_episodes(
+        C.make_env(args.env_id, n_eval_envs, final_seed, env_kwargs),
+        C.model_policy(model, vecnorm),
+        args.final_episodes,
+    )
     probe = C.make_env(args.env_id, n_eval_envs, final_seed, env_kwargs)
     rand = C.run_episodes(probe, C.random_policy(probe.action_space, final_seed), args.final_episodes)
 
@@ -182,8 +229,21 @@ def main(argv=None) -> dict:
         "eval_seeds": f"{final_seed}..{final_seed + n_eval_envs - 1} (held out; training used {args.seed}..{args.seed + args.n_envs - 1})",
         "random_success_rate": rand["success_rate"],
         "random_mean_return": rand["mean_return"],
-        "hyperparameters": {k: getattr(args, k) for k in ("n_envs", "n_steps", "batch_size", "n_epochs", "learning_rate",
-                                                          "gamma", "gae_lambda", "ent_coef", "clip_range", "net_arch")},
+        "hyperparameters": {
+            k: getattr(args, k)
+            for k in (
+                "n_envs",
+                "n_steps",
+                "batch_size",
+                "n_epochs",
+                "learning_rate",
+                "gamma",
+                "gae_lambda",
+                "ent_coef",
+                "clip_range",
+                "net_arch",
+            )
+        },
         "normalize": not args.no_normalize,
         "curve": curve,
     }
@@ -196,9 +256,11 @@ def main(argv=None) -> dict:
     if not args.no_gif:
         C.record_gif(args.env_id, env_kwargs, C.model_policy(model, vecnorm), out / "policy.gif", seed=final_seed)
 
-    print(f"done in {wall:.0f} s ({summary['env_steps_per_s']:,.0f} env-steps/s): success {trained['success_rate']:.0%} "
-          f"(random policy {rand['success_rate']:.0%}) over {trained['episodes']} held-out episodes, "
-          f"mean return {trained['mean_return']:.2f} (random {rand['mean_return']:.2f}); results in {out}")
+    print(
+        f"done in {wall:.0f} s ({summary['env_steps_per_s']:,.0f} env-steps/s): success {trained['success_rate']:.0%} "
+        f"(random policy {rand['success_rate']:.0%}) over {trained['episodes']} held-out episodes, "
+        f"mean return {trained['mean_return']:.2f} (random {rand['mean_return']:.2f}); results in {out}"
+    )
     return summary
 
 
@@ -221,8 +283,11 @@ def plot_curve(curve: list[dict], summary: dict, path: Path) -> None:
     ax2.axhline(summary["random_mean_return"], color="gray", ls="--")
     ax2.set_xlabel("environment steps")
     ax2.set_ylabel("mean episode return")
-    fig.suptitle(f"PPO on {summary['env_id']} (seed {summary['seed']}): final success "
-                 f"{summary['success_rate']:.0%}, random {summary['random_success_rate']:.0%}", fontsize=10)
+    fig.suptitle(
+        f"PPO on {summary['env_id']} (seed {summary['seed']}): final success "
+        f"{summary['success_rate']:.0%}, random {summary['random_success_rate']:.0%}",
+        fontsize=10,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -73,21 +73,48 @@ DAMPINGS = ("linear", "no_tension")
 # The sweep
 # --------------------------------------------------------------------------------------------
 
+
 def supported(integrator, damping):
     """World refuses implicit Euler with the no-tension clip (its linearised solve cannot see it)."""
     return not (integrator == "implicit_euler" and damping == "no_tension")
 
 
-FIELDS = ["scenario", "metric", "integrator", "events", "damping", "zeta", "steps_per_contact", "error",
-          "diverged", "wall_per_sim_s", "evals_per_sim_s", "events_per_sim_s", "fallbacks", "sim_time"]
+FIELDS = [
+    "scenario",
+    "metric",
+    "integrator",
+    "events",
+    "damping",
+    "zeta",
+    "steps_per_contact",
+    "error",
+    "diverged",
+    "wall_per_sim_s",
+    "evals_per_sim_s",
+    "events_per_sim_s",
+    "fallbacks",
+    "sim_time",
+]
 
 
 def _rows(scenario, integ, events, damping, zeta, spc, m: Measure):
     for metric, err in m.errors.items():
-        yield dict(scenario=scenario, metric=metric, integrator=integ, events=int(events), damping=damping,
-                   zeta=zeta, steps_per_contact=spc, error=err, diverged=int(m.diverged),
-                   wall_per_sim_s=m.wall_per_sim_s, evals_per_sim_s=m.evals_per_sim_s,
-                   events_per_sim_s=m.events_per_sim_s, fallbacks=m.fallbacks, sim_time=m.sim_time)
+        yield dict(
+            scenario=scenario,
+            metric=metric,
+            integrator=integ,
+            events=int(events),
+            damping=damping,
+            zeta=zeta,
+            steps_per_contact=spc,
+            error=err,
+            diverged=int(m.diverged),
+            wall_per_sim_s=m.wall_per_sim_s,
+            evals_per_sim_s=m.evals_per_sim_s,
+            events_per_sim_s=m.events_per_sim_s,
+            fallbacks=m.fallbacks,
+            sim_time=m.sim_time,
+        )
 
 
 def _drop_ends(zeta, damping):
@@ -116,8 +143,10 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
         new = list(_rows(scenario, integ, ev, damping, zeta, spc, m))
         rows.extend(new)
         errs = " ".join(f"{r['metric']}={r['error']:.3g}" for r in new)
-        log(f"[{time.perf_counter() - t0:7.1f}s] {scenario:12s} {integ:16s} events={int(ev)} {damping:10s} "
-            f"zeta={zeta:<4g} spc={spc:<4d} {errs}{'  DIVERGED' if m.diverged else ''}")
+        log(
+            f"[{time.perf_counter() - t0:7.1f}s] {scenario:12s} {integ:16s} events={int(ev)} {damping:10s} "
+            f"zeta={zeta:<4g} spc={spc:<4d} {errs}{'  DIVERGED' if m.diverged else ''}"
+        )
 
     fit_zetas = zetas + (FIT_EXTRA_ZETAS if fit and not quick else ())
     for integ, ev in methods:
@@ -129,7 +158,9 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
                     continue  # identical to linear without damping
                 for spc in spcs:
                     if "pair" in scenarios:
-                        emit("pair", integ, ev, damping, zeta, spc, pair_collision(integ, ev, damping, zeta, spc, phases))
+                        emit(
+                            "pair", integ, ev, damping, zeta, spc, pair_collision(integ, ev, damping, zeta, spc, phases)
+                        )
                     if "drop" in scenarios and _drop_ends(zeta, damping):
                         emit("drop", integ, ev, damping, zeta, spc, bowl_drop(integ, ev, damping, zeta, spc, phases))
                     if zeta in zetas and zeta > 0.0 and "rest" in scenarios:
@@ -141,7 +172,15 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
     if "elastic_pile" in scenarios:
         for integ, ev in methods:
             for spc in pile_spcs:
-                emit("elastic_pile", integ, ev, "linear", 0.0, spc, elastic_pile(integ, ev, spc, t_end=t_el, worlds=pile_worlds))
+                emit(
+                    "elastic_pile",
+                    integ,
+                    ev,
+                    "linear",
+                    0.0,
+                    spc,
+                    elastic_pile(integ, ev, spc, t_end=t_el, worlds=pile_worlds),
+                )
     if "damped_pile" in scenarios:
         spc_ref = 16 * max(pile_spcs)
         for damping in dampings:
@@ -150,9 +189,17 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
                     if not supported(integ, damping):
                         continue
                     for spc in pile_spcs:
-                        emit("damped_pile", integ, ev, damping, zeta, spc,
-                             damped_pile(integ, ev, damping, zeta, spc, spc_reference=spc_ref, t_end=t_dp,
-                                         worlds=pile_worlds))
+                        emit(
+                            "damped_pile",
+                            integ,
+                            ev,
+                            damping,
+                            zeta,
+                            spc,
+                            damped_pile(
+                                integ, ev, damping, zeta, spc, spc_reference=spc_ref, t_end=t_dp, worlds=pile_worlds
+                            ),
+                        )
     return rows
 
 
@@ -223,7 +270,7 @@ def fit_power_law(spcs, errs, tail=4):
             break
     sel = np.arange(start, len(spcs))
     sel = sel[good[sel]]
-    after = errs[sel[-1] + 1:] if sel.size else errs[:0]
+    after = errs[sel[-1] + 1 :] if sel.size else errs[:0]
     floor = float(after[after <= FLOOR].max()) if np.any(after <= FLOOR) else 0.0
     # a low plateau at the end is the measurement's floor (round-off, the interpolation of the
     # peak), not convergence: keep it out of the tail fit, as the model's floor
@@ -236,8 +283,14 @@ def fit_power_law(spcs, errs, tail=4):
     last = sel[-tail:]
     p = float(max(-np.polyfit(np.log(spcs[last]), np.log(errs[last]), 1)[0], 0.1))
     C = float(np.max(errs[last] * spcs[last] ** p))
-    return {"C": C, "p": p, "spc_min": float(spcs[sel[0]]), "spc_max": float(spcs[sel[-1]]),
-            "floor": max(floor, FLOOR), "pts": [[float(a), float(b)] for a, b in zip(spcs[sel], env)]}
+    return {
+        "C": C,
+        "p": p,
+        "spc_min": float(spcs[sel[0]]),
+        "spc_max": float(spcs[sel[-1]]),
+        "floor": max(floor, FLOOR),
+        "pts": [[float(a), float(b)] for a, b in zip(spcs[sel], env)],
+    }
 
 
 def fit_models(rows):
@@ -258,10 +311,13 @@ def fit_models(rows):
         if res is None:
             continue
         res["pts"] = tuple((int(a), float(f"{b:.4g}")) for a, b in res["pts"])
-        models[CF._model_key(integ, ev, damping, metric, zeta)] = {k: (float(f"{v:.4g}") if k != "pts" else v)
-                                                                   for k, v in res.items()}
+        models[CF._model_key(integ, ev, damping, metric, zeta)] = {
+            k: (float(f"{v:.4g}") if k != "pts" else v) for k, v in res.items()
+        }
         if zeta == 0.0:  # no damping: both damping modes are the same law
-            models[CF._model_key(integ, ev, "no_tension", metric, zeta)] = models[CF._model_key(integ, ev, damping, metric, zeta)]
+            models[CF._model_key(integ, ev, "no_tension", metric, zeta)] = models[
+                CF._model_key(integ, ev, damping, metric, zeta)
+            ]
     return models
 
 
@@ -278,9 +334,18 @@ def measure_costs(rows):
     per_step = {"explicit_euler": 1.0, "symplectic_euler": 1.0, "velocity_verlet": 1.0, "rk4": 4.0}
 
     def wall(scen, integ, zeta, spc):
-        return [r["wall_per_sim_s"] for r in rows if r["scenario"] == scen and r["integrator"] == integ
-                and not r["events"] and r["steps_per_contact"] == spc and r["zeta"] == zeta
-                and r["damping"] == "linear" and not r["diverged"] and math.isfinite(r["wall_per_sim_s"])]
+        return [
+            r["wall_per_sim_s"]
+            for r in rows
+            if r["scenario"] == scen
+            and r["integrator"] == integ
+            and not r["events"]
+            and r["steps_per_contact"] == spc
+            and r["zeta"] == zeta
+            and r["damping"] == "linear"
+            and not r["diverged"]
+            and math.isfinite(r["wall_per_sim_s"])
+        ]
 
     ratios = []
     for scen, zeta in (("elastic_pile", 0.0), ("damped_pile", 0.3)):
@@ -298,9 +363,17 @@ def measure_costs(rows):
                 continue
             if r["steps_per_contact"] < 8 or r["diverged"]:
                 continue
-            plain = [q for q in rows if q["scenario"] == "pair" and q["metric"] == "restitution" and q["integrator"] == integ
-                     and not q["events"] and q["damping"] == r["damping"] and q["zeta"] == r["zeta"]
-                     and q["steps_per_contact"] == r["steps_per_contact"]]
+            plain = [
+                q
+                for q in rows
+                if q["scenario"] == "pair"
+                and q["metric"] == "restitution"
+                and q["integrator"] == integ
+                and not q["events"]
+                and q["damping"] == r["damping"]
+                and q["zeta"] == r["zeta"]
+                and q["steps_per_contact"] == r["steps_per_contact"]
+            ]
             if not plain:
                 continue
             extra_evals = (r["evals_per_sim_s"] - plain[0]["evals_per_sim_s"]) * r["sim_time"]  # one contact per run
@@ -327,10 +400,14 @@ def write_models(models, per_step, extra, path, source=""):
     reads (one model per line, so a refit's diff shows what moved)."""
     import json
 
-    lines = ["{", f" \"source\": {json.dumps(source)},",
-             " \"generated_by\": \"python -m penalty_env.bench accuracy --fit\",",
-             f" \"cost_per_step\": {json.dumps(per_step, sort_keys=True)},",
-             f" \"event_extra_evals\": {json.dumps(extra, sort_keys=True)},", " \"error_models\": {"]
+    lines = [
+        "{",
+        f' "source": {json.dumps(source)},',
+        ' "generated_by": "python -m penalty_env.bench accuracy --fit",',
+        f' "cost_per_step": {json.dumps(per_step, sort_keys=True)},',
+        f' "event_extra_evals": {json.dumps(extra, sort_keys=True)},',
+        ' "error_models": {',
+    ]
     items = sorted(models.items())
     for i, (k, v) in enumerate(items):
         v = {kk: ([list(p) for p in vv] if kk == "pts" else vv) for kk, vv in v.items()}
@@ -354,10 +431,20 @@ PANELS = [
     ("elastic_pile", "energy_drift", "4. elastic pile (kd = 0): energy drift"),
     ("damped_pile", "trajectory", "5. damped pile: position error / r"),
 ]
-COLORS = {"explicit_euler": "tab:red", "symplectic_euler": "tab:blue", "velocity_verlet": "tab:green",
-          "rk4": "tab:purple", "implicit_euler": "tab:orange"}
-SHORT = {"explicit_euler": "explicit Euler", "symplectic_euler": "symplectic Euler",
-         "velocity_verlet": "velocity Verlet", "rk4": "RK4", "implicit_euler": "implicit Euler"}
+COLORS = {
+    "explicit_euler": "tab:red",
+    "symplectic_euler": "tab:blue",
+    "velocity_verlet": "tab:green",
+    "rk4": "tab:purple",
+    "implicit_euler": "tab:orange",
+}
+SHORT = {
+    "explicit_euler": "explicit Euler",
+    "symplectic_euler": "symplectic Euler",
+    "velocity_verlet": "velocity Verlet",
+    "rk4": "RK4",
+    "implicit_euler": "implicit Euler",
+}
 
 
 def _pareto(points):
@@ -388,10 +475,19 @@ def _panel(ax, rows, scen, metric, label, damping, zeta, cost, auto, floor=1e-13
     top = max([r["error"] for r in good] + [1.0]) * 3
     for integ in INTEGRATORS:
         for ev in (0, 1):
-            pts = sorted((r[cost], max(r["error"], floor)) for r in good if r["integrator"] == integ and r["events"] == ev)
+            pts = sorted(
+                (r[cost], max(r["error"], floor)) for r in good if r["integrator"] == integ and r["events"] == ev
+            )
             if pts:
-                ax.plot(*zip(*pts), color=COLORS[integ], ls="--" if ev else "-", marker="o" if ev else ".",
-                        ms=3, lw=1.2 if ev else 1.0, label=f"{SHORT[integ]}{' + events' if ev else ''}")
+                ax.plot(
+                    *zip(*pts),
+                    color=COLORS[integ],
+                    ls="--" if ev else "-",
+                    marker="o" if ev else ".",
+                    ms=3,
+                    lw=1.2 if ev else 1.0,
+                    label=f"{SHORT[integ]}{' + events' if ev else ''}",
+                )
             bad = [r for r in sel if r["diverged"] and r["integrator"] == integ and r["events"] == ev]
             if bad:
                 xs = [_nominal_cost(r, cost, sel) for r in bad]
@@ -416,8 +512,10 @@ def _panel(ax, rows, scen, metric, label, damping, zeta, cost, auto, floor=1e-13
     ax.set_ylim(floor, top * 2)
     ax.grid(True, which="major", alpha=0.3)
     ax.set_title(label, fontsize=9)
-    ax.set_xlabel("force evaluations / simulated s" if cost == "evals_per_sim_s" else "wall s / simulated s (per world)",
-                  fontsize=8)
+    ax.set_xlabel(
+        "force evaluations / simulated s" if cost == "evals_per_sim_s" else "wall s / simulated s (per world)",
+        fontsize=8,
+    )
     ax.set_ylabel("worst-case relative error", fontsize=8)
     ax.tick_params(labelsize=7)
     ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
@@ -427,8 +525,11 @@ def _legend(fig, ax, accuracy, **kw):
     from matplotlib.lines import Line2D
 
     handles, labels = ax.get_legend_handles_labels()
-    handles += [Line2D([], [], ls="none", marker="x", color="k"), Line2D([], [], color="0.5", lw=3, alpha=0.35),
-                Line2D([], [], ls="none", marker="*", ms=12, color="gold", mec="k")]
+    handles += [
+        Line2D([], [], ls="none", marker="x", color="k"),
+        Line2D([], [], color="0.5", lw=3, alpha=0.35),
+        Line2D([], [], ls="none", marker="*", ms=12, color="gold", mec="k"),
+    ]
     labels += ["diverged", "Pareto front", f"configure(accuracy={accuracy:g})"]
     fig.legend(handles, labels, frameon=False, fontsize=8, **kw)
 
@@ -451,20 +552,26 @@ def plot(rows, path, damping, zeta, cost="evals_per_sim_s", accuracy=0.01, title
     ncol = 4
     nrow = math.ceil(len(panels) / ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(4.0 * ncol, 3.3 * nrow), squeeze=False)
-    for ax in axes.flat[len(panels):]:
+    for ax in axes.flat[len(panels) :]:
         ax.axis("off")
     auto = _auto_or_none(zeta, damping, accuracy)
     for ax, (scen, metric, label) in zip(axes.flat, panels):
         _panel(ax, rows, scen, metric, label, damping, zeta, cost, auto)
     _legend(fig, axes.flat[0], accuracy, loc="lower right", ncol=2, bbox_to_anchor=(0.99, 0.02))
-    fig.suptitle(title or f"Speed against accuracy: damping {damping}, zeta = {zeta:g} (zeta = 0 in panel 4)", fontsize=11)
+    fig.suptitle(
+        title or f"Speed against accuracy: damping {damping}, zeta = {zeta:g} (zeta = 0 in panel 4)", fontsize=11
+    )
     fig.tight_layout(rect=(0, 0, 1, 0.96))
     fig.savefig(path, dpi=60)
     plt.close(fig)
 
 
-MORE_PANELS = [("pair", "restitution", "pair: restitution"), ("drop", "peak_overlap", "ball into bowl: peak overlap"),
-               ("rest", "resting_overlap", "resting overlap"), ("damped_pile", "trajectory", "damped pile: position / r")]
+MORE_PANELS = [
+    ("pair", "restitution", "pair: restitution"),
+    ("drop", "peak_overlap", "ball into bowl: peak overlap"),
+    ("rest", "resting_overlap", "resting overlap"),
+    ("damped_pile", "trajectory", "damped pile: position / r"),
+]
 
 
 def plot_more(rows, path, combos=(("linear", 0.1), ("no_tension", 0.1), ("no_tension", 0.3)), accuracy=0.01):
@@ -488,12 +595,24 @@ def plot_more(rows, path, combos=(("linear", 0.1), ("no_tension", 0.1), ("no_ten
 
 def _nominal_cost(r, cost, sel):
     """Cost of a diverged run, read off the same method's finite runs at the same steps per contact."""
-    same = [q[cost] for q in sel if q["integrator"] == r["integrator"] and q["events"] == r["events"]
-            and q["steps_per_contact"] == r["steps_per_contact"] and math.isfinite(q[cost])]
+    same = [
+        q[cost]
+        for q in sel
+        if q["integrator"] == r["integrator"]
+        and q["events"] == r["events"]
+        and q["steps_per_contact"] == r["steps_per_contact"]
+        and math.isfinite(q[cost])
+    ]
     if same:
         return same[0]
-    ref = [q for q in sel if q["steps_per_contact"] == r["steps_per_contact"] and math.isfinite(q[cost])
-           and q["integrator"] == "symplectic_euler" and not q["events"]]
+    ref = [
+        q
+        for q in sel
+        if q["steps_per_contact"] == r["steps_per_contact"]
+        and math.isfinite(q[cost])
+        and q["integrator"] == "symplectic_euler"
+        and not q["events"]
+    ]
     if ref and cost == "evals_per_sim_s":
         return ref[0][cost] * {"rk4": 4}.get(r["integrator"], 1)
     finite = [q[cost] for q in sel if math.isfinite(q[cost])]
@@ -531,8 +650,14 @@ def make_charts(rows, out, quick=False):
     plot(rows, p, "linear", 0.3)
     paths.append(p)
     p = os.path.join(out, "accuracy_walltime.png")
-    plot(rows, p, "linear", 0.3, cost="wall_per_sim_s",
-         title="Speed against accuracy: wall time per simulated second (same runs), damping linear, zeta = 0.3")
+    plot(
+        rows,
+        p,
+        "linear",
+        0.3,
+        cost="wall_per_sim_s",
+        title="Speed against accuracy: wall time per simulated second (same runs), damping linear, zeta = 0.3",
+    )
     paths.append(p)
     if not quick:
         p = os.path.join(out, "accuracy_more.png")
@@ -546,9 +671,17 @@ def order_table(rows, damping="linear", zeta=0.3, scenario="pair", metric="resti
     out = {}
     for integ in INTEGRATORS:
         for ev in (0, 1):
-            pts = {r["steps_per_contact"]: r["error"] for r in rows if r["scenario"] == scenario and r["metric"] == metric
-                   and r["integrator"] == integ and r["events"] == ev and r["damping"] == damping and r["zeta"] == zeta
-                   and not r["diverged"]}
+            pts = {
+                r["steps_per_contact"]: r["error"]
+                for r in rows
+                if r["scenario"] == scenario
+                and r["metric"] == metric
+                and r["integrator"] == integ
+                and r["events"] == ev
+                and r["damping"] == damping
+                and r["zeta"] == zeta
+                and not r["diverged"]
+            }
             s = [k for k in spcs if k in pts and pts[k] > FLOOR]
             if len(s) >= 2:
                 out[(integ, ev)] = float(-np.polyfit(np.log(s), np.log([pts[k] for k in s]), 1)[0])
@@ -562,8 +695,17 @@ def error_table(rows, scenario="pair", metric="restitution", damping="linear", z
         for ev in (0, 1):
             cells = []
             for spc in spcs:
-                r = [q for q in rows if q["scenario"] == scenario and q["metric"] == metric and q["integrator"] == integ
-                     and q["events"] == ev and q["damping"] == damping and q["zeta"] == zeta and q["steps_per_contact"] == spc]
+                r = [
+                    q
+                    for q in rows
+                    if q["scenario"] == scenario
+                    and q["metric"] == metric
+                    and q["integrator"] == integ
+                    and q["events"] == ev
+                    and q["damping"] == damping
+                    and q["zeta"] == zeta
+                    and q["steps_per_contact"] == spc
+                ]
                 cells.append("diverged" if r and r[0]["diverged"] else (f"{100 * r[0]['error']:.2g}%" if r else "-"))
             lines.append(f"| {SHORT[integ]}{' + events' if ev else ''} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -571,15 +713,19 @@ def error_table(rows, scenario="pair", metric="restitution", damping="linear", z
 
 def recommendation_table(accuracies=(0.1, 0.03, 0.01, 1e-3, 1e-4), restitutions=(0.9, 0.5, 0.2), damping="linear"):
     """Markdown table of what :func:`configure` picks (one isolated contact, no gravity)."""
-    lines = ["| restitution accuracy | " + " | ".join(f"e = {e:g}" for e in restitutions) + " |",
-             "|---" * (len(restitutions) + 1) + "|"]
+    lines = [
+        "| restitution accuracy | " + " | ".join(f"e = {e:g}" for e in restitutions) + " |",
+        "|---" * (len(restitutions) + 1) + "|",
+    ]
     for acc in accuracies:
         cells = []
         for e in restitutions:
             try:
                 c = CF.configure([1.0, 1.0], [0.1, 0.1], 1.0, 0.05, e, acc, damping=damping)
-                cells.append(f"{SHORT[c.integrator]}{' + events' if c.events else ''}, {c.steps_per_contact:.0f} steps "
-                             f"({c.cost_per_contact:.0f})")
+                cells.append(
+                    f"{SHORT[c.integrator]}{' + events' if c.events else ''}, {c.steps_per_contact:.0f} steps "
+                    f"({c.cost_per_contact:.0f})"
+                )
             except ValueError:
                 cells.append("none measured")
         lines.append(f"| {100 * acc:g}% | " + " | ".join(cells) + " |")
@@ -587,13 +733,19 @@ def recommendation_table(accuracies=(0.1, 0.03, 0.01, 1e-3, 1e-4), restitutions=
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(prog="python -m penalty_env.bench accuracy", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m penalty_env.bench accuracy",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--quick", action="store_true", help="a CI-sized sweep (< 2 minutes once compiled)")
     ap.add_argument("--fit", action="store_true", help="fit the error models and write them (see --models)")
-    ap.add_argument("--models", default=None,
-                    help="where --fit writes the error models (default: the package's data file in a source "
-                         "checkout; required for an installed package, which is never written)")
+    ap.add_argument(
+        "--models",
+        default=None,
+        help="where --fit writes the error models (default: the package's data file in a source "
+        "checkout; required for an installed package, which is never written)",
+    )
     ap.add_argument("--out", default=None, help="folder for the CSV and PNGs (default: docs/ of the repository)")
     ap.add_argument("--from-csv", default=None, help="skip the runs: chart (and fit) an existing accuracy.csv[.gz]")
     ap.add_argument("--no-plot", action="store_true")
@@ -618,9 +770,14 @@ def main(argv=None) -> None:
     if args.fit:
         models = fit_models(rows)
         per_step, extra = measure_costs(rows)
-        write_models(models, per_step, extra, models_path,
-                     source=f"{len(rows)} runs, {'quick' if args.quick else 'full'} sweep, "
-                            f"phases={128 if args.quick else PHASES}")
+        write_models(
+            models,
+            per_step,
+            extra,
+            models_path,
+            source=f"{len(rows)} runs, {'quick' if args.quick else 'full'} sweep, "
+            f"phases={128 if args.quick else PHASES}",
+        )
         CF.load_error_models(models_path)
         print(f"wrote {models_path}")
         print(f"fitted {len(models)} error models; cost per step {per_step}; event extra evals per contact {extra}")
@@ -630,17 +787,24 @@ def main(argv=None) -> None:
     print("convergence orders (pair restitution, linear, zeta 0.3, 16..128 steps per contact):")
     for (integ, ev), p in order_table(rows).items():
         print(f"  {SHORT[integ]:18s}{' + events' if ev else '         '}  p = {p:5.2f}")
-    located = [r for r in rows if r["scenario"] == "elastic_pile" and r["integrator"] == "rk4" and r["events"]
-               and not r["diverged"]]
+    located = [
+        r
+        for r in rows
+        if r["scenario"] == "elastic_pile" and r["integrator"] == "rk4" and r["events"] and not r["diverged"]
+    ]
     if located:
         r = max(located, key=lambda q: q["steps_per_contact"])
-        print(f"elastic pile: {r['events_per_sim_s'] * r['sim_time'] / 2:.0f} contacts per world "
-              f"(switches located by RK4 + events at {r['steps_per_contact']} steps per contact / 2)")
+        print(
+            f"elastic pile: {r['events_per_sim_s'] * r['sim_time'] / 2:.0f} contacts per world "
+            f"(switches located by RK4 + events at {r['steps_per_contact']} steps per contact / 2)"
+        )
     if args.tables:
         print("worst-case restitution error, pair collision, linear damping, zeta = 0.3:")
         print(error_table(rows))
-        print("configure's choice (method, steps per contact of the shortest contact, cost in force evaluations "
-              "per contact):")
+        print(
+            "configure's choice (method, steps per contact of the shortest contact, cost in force evaluations "
+            "per contact):"
+        )
         for damping in DAMPINGS:
             print(f"damping {damping}:")
             print(recommendation_table(damping=damping))

@@ -39,10 +39,6 @@ SLUMP_S, SETTLE_S, SETTLED_S = 2.0, 4.0, 1.0
 SETTLED_BLOCKS = 5
 
 
-
-
-
-
 def _rate(world: World, target_s: float) -> float:
     """Particle-substeps per second of ``world.step``, timed over about target_s seconds."""
     world.step(2)  # compile / warm
@@ -81,13 +77,19 @@ def bench_batched(n_worlds: int = 1024, n_balls: int = 6, target_s: float = 1.0)
                 pos[b, k] = p
                 k += 1
     ks, kd = scene_params(radius, mass)
-    w = World(pos, np.full(n_balls, radius), np.full(n_balls, mass), terrain=(bowl,), ks=ks, kd=kd, dt=1.0,
-              allow_unstable=True)
+    w = World(
+        pos,
+        np.full(n_balls, radius),
+        np.full(n_balls, mass),
+        terrain=(bowl,),
+        ks=ks,
+        kd=kd,
+        dt=1.0,
+        allow_unstable=True,
+    )
     dt = w.stability_limit()
     w = World(pos, np.full(n_balls, radius), np.full(n_balls, mass), terrain=(bowl,), ks=ks, kd=kd, dt=dt)
     return _rate(w, target_s)
-
-
 
 
 def lanes_crossover(sizes=(4, 8, 12, 16, 24, 32, 48), n_worlds: int = 128, target_s: float = 0.3):
@@ -105,8 +107,9 @@ def lanes_crossover(sizes=(4, 8, 12, 16, 24, 32, 48), n_worlds: int = 128, targe
         x0, v0 = w.positions.copy(), w.velocities.copy()
         rates = {}
         for lanes in (False, True):
-            rates[lanes] = _rate(World(x0, base.radii, base.masses, v0, stepping="lanes" if lanes else "scalar", **kw),
-                                 target_s)
+            rates[lanes] = _rate(
+                World(x0, base.radii, base.masses, v0, stepping="lanes" if lanes else "scalar", **kw), target_s
+            )
         rows.append((n, rates[False], rates[True]))
     last = max((n for n, s, v in rows if v > s), default=None)
     return rows, last
@@ -144,7 +147,9 @@ def compile_times() -> tuple[float, float]:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         out = []
         for _ in range(2):
-            res = subprocess.run([sys.executable, "-c", _COMPILE_SNIPPET], env=env, capture_output=True, text=True, check=True)
+            res = subprocess.run(
+                [sys.executable, "-c", _COMPILE_SNIPPET], env=env, capture_output=True, text=True, check=True
+            )
             out.append(float(res.stdout.strip().splitlines()[-1]))
     return out[0], out[1]
 
@@ -156,7 +161,9 @@ class _Phase(Rates):
     steps_per_build: float
     listed: float  # listed pairs per ball at the end
     state: tuple = ()  # what LAMMPS needs to run the same span: (x, v, radii, masses, centre, R, ks, kd, g, dt, steps, skin)
-    rates_1thread: list = field(default_factory=list)  # the settled pile on one thread (as many blocks again, after the others)
+    rates_1thread: list = field(
+        default_factory=list
+    )  # the settled pile on one thread (as many blocks again, after the others)
     repeats: int = 1  # how many times the phase was run (LAMMPS is run as often)
 
 
@@ -180,8 +187,20 @@ def _time_large(n: int):
                 steps = max(steps, -(-5_000_000 // n))
             blocks = SETTLED_BLOCKS if label == "settled" else 1
             per_block = -(-steps // blocks)
-            state = (w.positions.copy(), w.velocities.copy(), w.radii, w.masses, bowl.center, bowl.radius, w.ks, w.kd,
-                     w.gravity, w.dt, per_block * blocks, skin)
+            state = (
+                w.positions.copy(),
+                w.velocities.copy(),
+                w.radii,
+                w.masses,
+                bowl.center,
+                bowl.radius,
+                w.ks,
+                w.kd,
+                w.gravity,
+                w.dt,
+                per_block * blocks,
+                skin,
+            )
             lists = w.stepping == "neighbour_list"
             builds = w.neighbour_list_stats()["builds"] if lists else 0
             rates = []
@@ -193,8 +212,9 @@ def _time_large(n: int):
                 continue
             builds = (w.neighbour_list_stats()["builds"] - builds) if lists else per_block * blocks
             listed = w.neighbour_list_stats()["listed_per_ball"] if lists else float("nan")
-            ph = phases.setdefault(label, _Phase(label, [], per_block * blocks / max(builds, 1), listed, state,
-                                                 repeats=repeats))
+            ph = phases.setdefault(
+                label, _Phase(label, [], per_block * blocks / max(builds, 1), listed, state, repeats=repeats)
+            )
             ph.rates.extend(rates)
             if label == "settled":  # the same pile on one thread, for the one-core comparison
                 threads = numba.get_num_threads()
@@ -211,41 +231,54 @@ def _time_large(n: int):
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(prog="python -m penalty_env.bench core", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m penalty_env.bench core",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--quick", action="store_true", help="smaller sizes and shorter timings (CI smoke run)")
     ap.add_argument("--no-lammps", action="store_true", help="do not run LAMMPS on the (b) scenes (the peer)")
     args = ap.parse_args(argv)
     quick = args.quick
     t_s = 0.2 if quick else 1.0
 
-    print(f"penalty_env core benchmark: symplectic Euler, {numba.config.NUMBA_NUM_THREADS} threads, "
-          f"numba {numba.__version__}")
+    print(
+        f"penalty_env core benchmark: symplectic Euler, {numba.config.NUMBA_NUM_THREADS} threads, "
+        f"numba {numba.__version__}"
+    )
     nw = 64 if quick else 1024
     rate = bench_batched(nw, 6, t_s)
     print(f"(a) {nw} worlds x 6 balls, 3D bowl: {rate / 1e6:8.1f} M particle-substeps/s  (target >= 80 M)")
 
     sizes = (1_000, 4_000) if quick else (1_000, 10_000, 100_000)
     peer = "skipped (--no-lammps)" if args.no_lammps else find_lammps()
-    print(f"(b) one world packed in a bowl (grid): timed over the slump from the lattice (first {SLUMP_S:g} s "
-          f"simulated), then settled (after {SLUMP_S + SETTLE_S:g} s, over {SETTLED_S:g} s or 5 M particle-steps in "
-          f"{SETTLED_BLOCKS} blocks: the best block, and the median, over 3 runs up to 10,000 balls)")
+    print(
+        f"(b) one world packed in a bowl (grid): timed over the slump from the lattice (first {SLUMP_S:g} s "
+        f"simulated), then settled (after {SLUMP_S + SETTLE_S:g} s, over {SETTLED_S:g} s or 5 M particle-steps in "
+        f"{SETTLED_BLOCKS} blocks: the best block, and the median, over 3 runs up to 10,000 balls)"
+    )
     if isinstance(peer, str):
-        print(f"    peer: {peer}; LAMMPS's logged one-core figure ({LAMMPS_PARTICLE_STEPS_PER_S / 1e6:g} M/s, "
-              f"its chute benchmark, other hardware) stands in")
+        print(
+            f"    peer: {peer}; LAMMPS's logged one-core figure ({LAMMPS_PARTICLE_STEPS_PER_S / 1e6:g} M/s, "
+            f"its chute benchmark, other hardware) stands in"
+        )
     else:
-        print(f"    peer: LAMMPS ({peer.version}; pair gran/hooke, fix wall/gran/region on the same Bowl, fix nve) "
-              f"run from the World's own state at each phase, with its ks, kd, dt and skin, OPENMP on 1 and "
-              f"{numba.get_num_threads()} threads, as many times as the World's run (best of all blocks against best)")
+        print(
+            f"    peer: LAMMPS ({peer.version}; pair gran/hooke, fix wall/gran/region on the same Bowl, fix nve) "
+            f"run from the World's own state at each phase, with its ks, kd, dt and skin, OPENMP on 1 and "
+            f"{numba.get_num_threads()} threads, as many times as the World's run (best of all blocks against best)"
+        )
     per_particle = {}
     for n in sizes:
         phases, mode = _time_large(n)
         per_particle[n] = tuple(1e9 / ph.best for ph in phases)
         for ph in phases:
             spread = f" (median {ph.median / 1e6:5.1f} M)" if len(ph.rates) > 1 else ""
-            print(f"    {n:>7,} balls {ph.label:>7}: {ph.best / 1e6:6.1f} M particle-substeps/s{spread}, "
-                  f"{1e9 / ph.best:6.1f} ns per particle-step, list rebuilt every {ph.steps_per_build:5.1f} steps, "
-                  f"{ph.listed:4.1f} listed pairs per ball (each pair once; {mode})")
+            print(
+                f"    {n:>7,} balls {ph.label:>7}: {ph.best / 1e6:6.1f} M particle-substeps/s{spread}, "
+                f"{1e9 / ph.best:6.1f} ns per particle-step, list rebuilt every {ph.steps_per_build:5.1f} steps, "
+                f"{ph.listed:4.1f} listed pairs per ball (each pair once; {mode})"
+            )
             one = Rates(ph.rates_1thread).best if ph.rates_1thread else None
             if one is not None:
                 print(f"{'':>18}on 1 thread: {one / 1e6:6.1f} M (median {Rates(ph.rates_1thread).median / 1e6:5.1f} M)")
@@ -254,39 +287,52 @@ def main(argv=None) -> None:
                 continue
             for threads in sorted({1, numba.get_num_threads()}):
                 try:
-                    runs = [run_lammps(peer, *ph.state, threads=threads, blocks=len(ph.rates) // ph.repeats)
-                            for _ in range(ph.repeats)]
+                    runs = [
+                        run_lammps(peer, *ph.state, threads=threads, blocks=len(ph.rates) // ph.repeats)
+                        for _ in range(ph.repeats)
+                    ]
                 except (RuntimeError, OSError, subprocess.TimeoutExpired) as exc:
                     print(f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ''}: failed ({str(exc)[-300:]})")
                     continue
                 run = Rates(r for each in runs for r in each.rates)
                 spread = f" (median {run.median / 1e6:5.1f} M)" if len(run.rates) > 1 else ""
                 # like for like where ours was timed on one thread too (the settled pile)
-                ours, ours_threads = (one, 1) if threads == 1 and one is not None else (ph.best, numba.get_num_threads())
-                print(f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ' '}: {run.best / 1e6:6.1f} M "
-                      f"particle-steps/s{spread}, list rebuilt every {runs[0].steps_per_build:5.1f} steps: "
-                      f"penalty_env ({ours_threads} thread{'s' if ours_threads > 1 else ''}) {ours / run.best:5.2f}x")
+                ours, ours_threads = (
+                    (one, 1) if threads == 1 and one is not None else (ph.best, numba.get_num_threads())
+                )
+                print(
+                    f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ' '}: {run.best / 1e6:6.1f} M "
+                    f"particle-steps/s{spread}, list rebuilt every {runs[0].steps_per_build:5.1f} steps: "
+                    f"penalty_env ({ours_threads} thread{'s' if ours_threads > 1 else ''}) {ours / run.best:5.2f}x"
+                )
     ns = sorted(per_particle)
     for k, label in enumerate(("slump", "settled")):
-        print(f"    time per particle, {label}, largest / smallest world: "
-              f"{per_particle[ns[-1]][k] / per_particle[ns[0]][k]:.2f}x (flat within 1.5x is the goal)")
+        print(
+            f"    time per particle, {label}, largest / smallest world: "
+            f"{per_particle[ns[-1]][k] / per_particle[ns[0]][k]:.2f}x (flat within 1.5x is the goal)"
+        )
 
     rows, first = crossover((8, 32, 64, 128) if quick else (8, 16, 24, 32, 48, 64, 96, 128, 256), 0.1 if quick else 0.3)
     print("(c) balls  all-pairs M/s   grid M/s")
     for n, a, g in rows:
         print(f"    {n:5d}  {a / 1e6:12.2f}  {g / 1e6:9.2f}")
-    print(f"    grid faster from {first} balls on; World uses the grid from GRID_MIN_BALLS = {GRID_MIN_BALLS} "
-          f"(neighbour list, parallel over balls, from LARGE_WORLD_MIN_BALLS = {LARGE_WORLD_MIN_BALLS})")
+    print(
+        f"    grid faster from {first} balls on; World uses the grid from GRID_MIN_BALLS = {GRID_MIN_BALLS} "
+        f"(neighbour list, parallel over balls, from LARGE_WORLD_MIN_BALLS = {LARGE_WORLD_MIN_BALLS})"
+    )
 
-    rows, last = lanes_crossover((4, 16, 48) if quick else (4, 8, 12, 16, 24, 32, 48), 64 if quick else 128,
-                                 0.1 if quick else 0.3)
+    rows, last = lanes_crossover(
+        (4, 16, 48) if quick else (4, 8, 12, 16, 24, 32, 48), 64 if quick else 128, 0.1 if quick else 0.3
+    )
     print("(d) balls  scalar M/s   SIMD lanes M/s   (batched all-pairs worlds, symplectic Euler)")
     for n, sc, ln in rows:
         print(f"    {n:5d}  {sc / 1e6:10.2f}  {ln / 1e6:14.2f}   {ln / sc:5.2f}x")
     print(f"    lanes faster up to {last} balls; World uses them up to LANES_MAX_BALLS = {LANES_MAX_BALLS}")
 
     cold, warm = compile_times()
-    print(f"(e) import + first step in a fresh process: cold cache {cold:.2f} s, warm cache {warm:.2f} s (target warm < 1 s)")
+    print(
+        f"(e) import + first step in a fresh process: cold cache {cold:.2f} s, warm cache {warm:.2f} s (target warm < 1 s)"
+    )
 
 
 if __name__ == "__main__":

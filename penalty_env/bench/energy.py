@@ -39,8 +39,19 @@ def wall_collision_gains(integrator: str, omega_dt: float, zeta: float = 0.0, ph
     x[:, 0, 2] = r + v0 * dt * phase
     v = np.zeros_like(x)
     v[:, 0, 2] = -v0
-    w = World(x, [r], [m], v, terrain=Bowl((0.0, 0.0, 50.0), 50.0), gravity=(0.0, 0.0, 0.0), ks=ks,
-              kd=2.0 * zeta * math.sqrt(ks * m), integrator=integrator, dt=dt, allow_unstable=True)
+    w = World(
+        x,
+        [r],
+        [m],
+        v,
+        terrain=Bowl((0.0, 0.0, 50.0), 50.0),
+        gravity=(0.0, 0.0, 0.0),
+        ks=ks,
+        kd=2.0 * zeta * math.sqrt(ks * m),
+        integrator=integrator,
+        dt=dt,
+        allow_unstable=True,
+    )
     w.step(int(2.0 * math.pi / omega_dt) + 10)
     return (w.velocities[:, 0, 2] / v0) ** 2 - 1.0
 
@@ -64,8 +75,11 @@ def gas(frac_or_dt, B=192, n=8, steps=20_000, seed=0, energy_limit=False):
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(prog="python -m penalty_env.bench energy", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m penalty_env.bench energy",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--quick", action="store_true", help="fewer steps and no gas (a smoke run)")
     ap.add_argument("--out", default=None, help="folder for the CSV and PNG (default: docs/ of the repository)")
     args = ap.parse_args(argv)
@@ -76,23 +90,30 @@ def main(argv=None) -> None:
         out = os.path.join(tempfile.gettempdir(), "penalty_env_bench_quick")
     os.makedirs(out, exist_ok=True)
     rows = []
-    print(f"(a) mean relative energy gain per elastic collision, over {PHASES} phases (budget "
-          f"{theory.ENERGY_BUDGET:g}: 1% per 1,000 collisions)")
+    print(
+        f"(a) mean relative energy gain per elastic collision, over {PHASES} phases (budget "
+        f"{theory.ENERGY_BUDGET:g}: 1% per 1,000 collisions)"
+    )
     worst_mismatch = 0.0
     for integ in INTEGRATORS:
         top = min(theory.guard_omega_dt(integ, 0.0), 3.0)
         grid = np.exp(np.linspace(math.log(0.05), math.log(top), 12 if args.quick else 40))
         limit = theory.energy_omega_dt(integ, 0.0)
-        print(f"  {integ}: energy limit omega0 dt = {limit:.4g} (stability guard {theory.guard_omega_dt(integ, 0.0):.4g})")
+        print(
+            f"  {integ}: energy limit omega0 dt = {limit:.4g} (stability guard {theory.guard_omega_dt(integ, 0.0):.4g})"
+        )
         for h in grid:
             gains = wall_collision_gains(integ, h)
             model = theory.energy_gain_per_collision(integ, h, phases=PHASES)[0]
             worst_mismatch = max(worst_mismatch, abs(gains.mean() - model))
-            rows.append(dict(integrator=integ, omega_dt=h, mean_gain=gains.mean(), spread=gains.std(),
-                             model=model, limit=limit))
+            rows.append(
+                dict(integrator=integ, omega_dt=h, mean_gain=gains.mean(), spread=gains.std(), model=model, limit=limit)
+            )
         sel = [r for r in rows if r["integrator"] == integ]
         for r in sel[:: max(1, len(sel) // 6)]:
-            print(f"    omega0 dt {r['omega_dt']:.3f}: {r['mean_gain']:+.3e} (spread {r['spread']:.2e}; model {r['model']:+.3e})")
+            print(
+                f"    omega0 dt {r['omega_dt']:.3f}: {r['mean_gain']:+.3e} (spread {r['spread']:.2e}; model {r['model']:+.3e})"
+            )
     print(f"  largest difference between the World and the model: {worst_mismatch:.2e}")
     with open(os.path.join(out, "energy_per_collision.csv"), "w", newline="") as f:
         wr = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -100,12 +121,18 @@ def main(argv=None) -> None:
         wr.writerows(rows)
     if not args.quick:
         print("(b) elastic gas, 192 worlds x 8 balls, 20,000 steps: energy ratio over the worlds")
-        for label, frac, lim in (("guard", 1.0, False), ("guard / 2", 0.5, False), ("guard / 4", 0.25, False),
-                                 ("energy limit", None, True)):
+        for label, frac, lim in (
+            ("guard", 1.0, False),
+            ("guard / 2", 0.5, False),
+            ("guard / 4", 0.25, False),
+            ("energy limit", None, True),
+        ):
             od, ratio = gas(frac, energy_limit=lim)
-            print(f"  {label:13s} (pair omega0 dt {od:.3f}): median {np.median(ratio):.4f}, mean {ratio.mean():.4f}, "
-                  f"90th percentile {np.percentile(ratio, 90):.4f}, worst {ratio.max():.4g}, "
-                  f"{np.mean(ratio > 10):.0%} above 10x")
+            print(
+                f"  {label:13s} (pair omega0 dt {od:.3f}): median {np.median(ratio):.4f}, mean {ratio.mean():.4f}, "
+                f"90th percentile {np.percentile(ratio, 90):.4f}, worst {ratio.max():.4g}, "
+                f"{np.mean(ratio > 10):.0%} above 10x"
+            )
     try:
         import matplotlib
 
@@ -115,13 +142,23 @@ def main(argv=None) -> None:
         print("matplotlib not installed: no chart")
         return
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    colors = {"symplectic_euler": "tab:blue", "velocity_verlet": "tab:green", "rk4": "tab:purple",
-              "implicit_euler": "tab:orange"}
+    colors = {
+        "symplectic_euler": "tab:blue",
+        "velocity_verlet": "tab:green",
+        "rk4": "tab:purple",
+        "implicit_euler": "tab:orange",
+    }
     for integ in INTEGRATORS:
         sel = [r for r in rows if r["integrator"] == integ]
         h = [r["omega_dt"] for r in sel]
-        ax.plot(h, [abs(r["mean_gain"]) for r in sel], "o-", ms=3, color=colors[integ],
-                label=f"{integ.replace('_', ' ')} ({'gains' if sel[-1]['mean_gain'] > 0 else 'loses'})")
+        ax.plot(
+            h,
+            [abs(r["mean_gain"]) for r in sel],
+            "o-",
+            ms=3,
+            color=colors[integ],
+            label=f"{integ.replace('_', ' ')} ({'gains' if sel[-1]['mean_gain'] > 0 else 'loses'})",
+        )
         ax.plot(h, [abs(r["model"]) for r in sel], ":", color=colors[integ], lw=1)
         if math.isfinite(sel[0]["limit"]) and sel[0]["limit"] < h[-1]:
             ax.axvline(sel[0]["limit"], color=colors[integ], ls="--", lw=0.8)

@@ -148,8 +148,10 @@ def main(argv=None) -> dict[str, float]:
     args = parser.parse_args(argv)
     seconds = args.seconds or (0.1 if args.quick else 1.0)
 
-    print(f"PenaltyBalls env benchmark: {platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} CPUs, numba threads {numba.config.NUMBA_NUM_THREADS}, best of 3 x {seconds:g} s")
+    print(
+        f"PenaltyBalls env benchmark: {platform.processor() or platform.machine()}, "
+        f"{os.cpu_count()} CPUs, numba threads {numba.config.NUMBA_NUM_THREADS}, best of 3 x {seconds:g} s"
+    )
     scene = gym.make("PenaltyBalls-v0").unwrapped.scene
     print(f"PenaltyBalls-v0 physics: {scene.describe()}")
     rates: dict[str, float] = {}
@@ -162,14 +164,30 @@ def main(argv=None) -> dict[str, float]:
         ("make PenaltyBalls-v0", lambda: _single("PenaltyBalls-v0"), 1, "steps/s"),
         ("make PenaltyBalls2D-v0", lambda: _single("PenaltyBalls2D-v0"), 1, "steps/s"),
         ("make PenaltyBalls-v0, 3 obstacles", lambda: _single("PenaltyBalls-v0", n_obstacles=3), 1, "steps/s"),
-        ("SyncVectorEnv PenaltyBalls-v0 x 8",
-         lambda: _vector(gym.make_vec("PenaltyBalls-v0", 8, vectorization_mode="sync"), 8), 8, "env-steps/s"),
+        (
+            "SyncVectorEnv PenaltyBalls-v0 x 8",
+            lambda: _vector(gym.make_vec("PenaltyBalls-v0", 8, vectorization_mode="sync"), 8),
+            8,
+            "env-steps/s",
+        ),
     ]
     for n in (1, 64, 1024):
-        cases.append((f"make_vec PenaltyBalls-v0 x {n}",
-                      lambda n=n: _vector(gym.make_vec("PenaltyBalls-v0", num_envs=n), n), n, "env-steps/s"))
-    cases.append(("make_vec PenaltyBalls2D-v0 x 1024",
-                  lambda: _vector(gym.make_vec("PenaltyBalls2D-v0", num_envs=1024), 1024), 1024, "env-steps/s"))
+        cases.append(
+            (
+                f"make_vec PenaltyBalls-v0 x {n}",
+                lambda n=n: _vector(gym.make_vec("PenaltyBalls-v0", num_envs=n), n),
+                n,
+                "env-steps/s",
+            )
+        )
+    cases.append(
+        (
+            "make_vec PenaltyBalls2D-v0 x 1024",
+            lambda: _vector(gym.make_vec("PenaltyBalls2D-v0", num_envs=1024), 1024),
+            1024,
+            "env-steps/s",
+        )
+    )
     try:
         import stable_baselines3  # noqa: F401
 
@@ -199,8 +217,10 @@ def main(argv=None) -> dict[str, float]:
         goal = f"{threshold:g}x" if den else f"{threshold:,.0f}"
         print(f"  {label:<42} {shown:>14}   (target >= {goal}) {verdict}")
     frames = rates.get("rgb_array 256x256 PenaltyBalls-v0", 0.0)
-    print(f"  {'rgb_array frames/s at 256x256 (3D)':<42} {frames:>14,.0f}   (target >= 200) "
-          f"{'ok' if frames >= 200 else 'MISSED'}")
+    print(
+        f"  {'rgb_array frames/s at 256x256 (3D)':<42} {frames:>14,.0f}   (target >= 200) "
+        f"{'ok' if frames >= 200 else 'MISSED'}"
+    )
     return rates
 
 

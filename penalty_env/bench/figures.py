@@ -49,8 +49,11 @@ def replace_block(text: str, begin: str, end: str, body: str) -> str:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(prog="python -m penalty_env.bench figures", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m penalty_env.bench figures",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--skip", default="", help=f"comma-separated parts to skip: {', '.join(PARTS)}")
     args = ap.parse_args(argv)
     skip = set(filter(None, args.skip.split(",")))
@@ -73,8 +76,9 @@ def main(argv=None) -> None:
         readme = os.path.join(tree, "README.md")
         with open(readme) as f:
             text = f.read()
-        text = replace_block(text, "<!-- BEGIN MAIN JOB OUTPUT -->", "<!-- END MAIN JOB OUTPUT -->",
-                             "```\n" + "\n".join(lines) + "\n```")
+        text = replace_block(
+            text, "<!-- BEGIN MAIN JOB OUTPUT -->", "<!-- END MAIN JOB OUTPUT -->", "```\n" + "\n".join(lines) + "\n```"
+        )
         with open(readme, "w") as f:
             f.write(text)
         print("updated README.md's main-job output:", *lines, sep="\n  ")

@@ -87,7 +87,9 @@ def find_lammps() -> Lammps | str:
     except (OSError, subprocess.TimeoutExpired) as exc:
         return f"LAMMPS at {lmp} does not start: {exc}"
     if res.returncode != 0 or "GRANULAR" not in res.stdout or "OPENMP" not in res.stdout:
-        return f"LAMMPS at {lmp} does not run or lacks the GRANULAR or OPENMP package: {(res.stderr or res.stdout)[-300:]}"
+        return (
+            f"LAMMPS at {lmp} does not run or lacks the GRANULAR or OPENMP package: {(res.stderr or res.stdout)[-300:]}"
+        )
     version = re.search(r"Simulator - (.*)", res.stdout)
     return Lammps(lmp, env, version.group(1).strip() if version else "unknown version")
 
@@ -106,8 +108,25 @@ def _data_file(path: str, x: np.ndarray, v: np.ndarray, radii: np.ndarray, masse
         f.write("\n".join(lines) + "\n")
 
 
-def run_lammps(lammps: Lammps, x, v, radii, masses, bowl_center, bowl_radius, ks, kd, gravity, dt, steps,
-               skin, threads=1, blocks=1, final_state=False, timeout=3600.0) -> LammpsRun:
+def run_lammps(
+    lammps: Lammps,
+    x,
+    v,
+    radii,
+    masses,
+    bowl_center,
+    bowl_radius,
+    ks,
+    kd,
+    gravity,
+    dt,
+    steps,
+    skin,
+    threads=1,
+    blocks=1,
+    final_state=False,
+    timeout=3600.0,
+) -> LammpsRun:
     """Run ``steps`` steps of LAMMPS from state (x, v) of one 3D world of balls of one mass in a Bowl,
     timed in ``blocks`` consecutive runs (as the World's settled pile is); ``final_state`` also
     returns the positions and velocities it ends with (ball order)."""

@@ -28,8 +28,9 @@ def _rss_mb() -> float:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def soak(env_id: str = "PenaltyBalls-v0", env_steps: int = 10_000_000, num_envs: int = 1024, seed: int = 0,
-         log=print) -> dict:
+def soak(
+    env_id: str = "PenaltyBalls-v0", env_steps: int = 10_000_000, num_envs: int = 1024, seed: int = 0, log=print
+) -> dict:
     import gymnasium as gym
 
     import penalty_env  # noqa: F401  (registers the ids)
@@ -62,28 +63,44 @@ def soak(env_id: str = "PenaltyBalls-v0", env_steps: int = 10_000_000, num_envs:
             rss.append(_rss_mb())
     wall = time.perf_counter() - t0
     growth = max(rss) / rss[0] - 1.0
-    result = dict(env_steps=calls * num_envs, episodes=episodes, wall_s=wall, rate=calls * num_envs / wall,
-                  rss_mb=rss, rss_growth=growth, nonfinite_obs=bad_obs, nonfinite_rewards=bad_reward,
-                  obs_outside_space=outside, exceptions=errors)
+    result = dict(
+        env_steps=calls * num_envs,
+        episodes=episodes,
+        wall_s=wall,
+        rate=calls * num_envs / wall,
+        rss_mb=rss,
+        rss_growth=growth,
+        nonfinite_obs=bad_obs,
+        nonfinite_rewards=bad_reward,
+        obs_outside_space=outside,
+        exceptions=errors,
+    )
     result["ok"] = growth <= 0.05 and bad_obs == 0 and bad_reward == 0 and outside == 0 and errors == 0
     return result
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(prog="python -m penalty_env.bench soak", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m penalty_env.bench soak",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--env", default="PenaltyBalls-v0")
     ap.add_argument("--env-steps", type=float, default=1e7, help="environment steps in all (default 1e7)")
     ap.add_argument("--num-envs", type=int, default=1024)
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     r = soak(args.env, int(args.env_steps), args.num_envs, args.seed)
-    print(f"{args.env}: {r['env_steps']:,} env-steps ({r['episodes']:,} episodes) in {r['wall_s']:.1f} s, "
-          f"{r['rate']:,.0f} env-steps/s")
+    print(
+        f"{args.env}: {r['env_steps']:,} env-steps ({r['episodes']:,} episodes) in {r['wall_s']:.1f} s, "
+        f"{r['rate']:,.0f} env-steps/s"
+    )
     print("resident memory (MB) at the start and every tenth: " + ", ".join(f"{m:.1f}" for m in r["rss_mb"]))
-    print(f"memory growth {100 * r['rss_growth']:.2f}% (limit 5%); non-finite observations {r['nonfinite_obs']}, "
-          f"rewards {r['nonfinite_rewards']}; sampled observations outside the space {r['obs_outside_space']}; "
-          f"exceptions {r['exceptions']}")
+    print(
+        f"memory growth {100 * r['rss_growth']:.2f}% (limit 5%); non-finite observations {r['nonfinite_obs']}, "
+        f"rewards {r['nonfinite_rewards']}; sampled observations outside the space {r['obs_outside_space']}; "
+        f"exceptions {r['exceptions']}"
+    )
     print("PASSED" if r["ok"] else "FAILED")
     sys.exit(0 if r["ok"] else 1)
 

@@ -40,15 +40,21 @@ import numpy as np
 from ..physics import Bowl, World, theory
 
 INTEGRATORS = theory.INTEGRATORS
-SHORT = {"explicit_euler": "explicit Euler", "symplectic_euler": "symplectic Euler",
-         "velocity_verlet": "velocity Verlet", "rk4": "RK4", "implicit_euler": "implicit Euler"}
+SHORT = {
+    "explicit_euler": "explicit Euler",
+    "symplectic_euler": "symplectic Euler",
+    "velocity_verlet": "velocity Verlet",
+    "rk4": "RK4",
+    "implicit_euler": "implicit Euler",
+}
 
 # (a) the floor oscillator ----------------------------------------------------------------------
 OSC_R, OSC_M, OSC_KS, OSC_G, OSC_BOWL_R = 0.25, 2.0, 2.0e4, 9.81, 4.0
 
 
-def floor_oscillator_growth(integrator: str, omega_dt: float, zeta: float, n_steps: int = 4000,
-                            displacement: float = 1e-4, window: int = 200) -> float:
+def floor_oscillator_growth(
+    integrator: str, omega_dt: float, zeta: float, n_steps: int = 4000, displacement: float = 1e-4, window: int = 200
+) -> float:
     """Largest oscillation energy over the last ``window`` steps / over the first ``window`` steps;
     inf if the run blew up or its energy ever exceeded 1e4 x the start (amplitude x 100).
 
@@ -64,8 +70,18 @@ def floor_oscillator_growth(integrator: str, omega_dt: float, zeta: float, n_ste
     rest = OSC_M * OSC_G / OSC_KS
     bowl = Bowl((0.0, 0.0, OSC_BOWL_R), OSC_BOWL_R)
     x = np.array([[0.0, 0.0, OSC_R - rest]])
-    w = World(x, [OSC_R], [OSC_M], terrain=(bowl,), gravity=(0.0, 0.0, -OSC_G), ks=OSC_KS, kd=kd,
-              integrator=integrator, dt=omega_dt / omega, allow_unstable=True)
+    w = World(
+        x,
+        [OSC_R],
+        [OSC_M],
+        terrain=(bowl,),
+        gravity=(0.0, 0.0, -OSC_G),
+        ks=OSC_KS,
+        kd=kd,
+        integrator=integrator,
+        dt=omega_dt / omega,
+        allow_unstable=True,
+    )
     e_rest = w.energy()
     x[0, 2] = OSC_R - rest * (1.0 + displacement)
     w.set_state(positions=x, velocities=np.zeros((1, 3)))
@@ -135,8 +151,19 @@ def tunnelling_outcome(integrator: str, speed: float, dt: float, phases: int = T
     x[:, 0, 2] = TUN_R + speed * dt * ph
     v = np.zeros_like(x)
     v[:, 0, 2] = -speed
-    w = World(x, [TUN_R], [TUN_M], v, terrain=(bowl,), gravity=(0.0, 0.0, 0.0), ks=TUN_KS, kd=kd,
-              integrator=integrator, dt=dt, allow_unstable=True)
+    w = World(
+        x,
+        [TUN_R],
+        [TUN_M],
+        v,
+        terrain=(bowl,),
+        gravity=(0.0, 0.0, 0.0),
+        ks=TUN_KS,
+        kd=kd,
+        integrator=integrator,
+        dt=dt,
+        allow_unstable=True,
+    )
     # long enough for a contact of several t_c, or for a deep pass at speed v
     t_end = 4.0 * tc + 4.0 * (TUN_R + speed / omega) / speed + 2 * dt
     n_total = int(math.ceil(t_end / dt))
@@ -180,8 +207,9 @@ def tunnelling_map(speeds, dts, log=print):
 # (c) the environment -----------------------------------------------------------------------------
 
 
-def env_stress(n_steps: int = 100_000, env_id: str = "PenaltyBalls-v0", seed: int = 0, release_steps: int = 3_000,
-               log=print):
+def env_stress(
+    n_steps: int = 100_000, env_id: str = "PenaltyBalls-v0", seed: int = 0, release_steps: int = 3_000, log=print
+):
     """Drive the pusher at full throttle toward the ball for n_steps env steps (no resets), then
     release the throttle for ``release_steps``.
 
@@ -325,12 +353,29 @@ def plot_map(rows, boundary, omega_dts, zetas, path):
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    fig.legend([Patch(color="#b7e4b0"), Patch(color="#f4a6a0"), Line2D([], [], color="k", lw=1.5),
-                Line2D([], [], ls="none", marker="o", color="gold", mec="k")],
-               ["bounded", "growing", "theory (docs/physics.md section 4, amplification matrix)", "measured: first growing omega0 dt"],
-               loc="lower center", ncol=4, fontsize=8, frameon=False)
-    fig.suptitle("Stability map: a ball oscillating on the floor (a linear oscillator while in contact); growing = energy "
-                 "over the last 200 of 4,000 steps > 1.01 x the first 200's, or > 1e4 x the start", fontsize=10)
+    fig.legend(
+        [
+            Patch(color="#b7e4b0"),
+            Patch(color="#f4a6a0"),
+            Line2D([], [], color="k", lw=1.5),
+            Line2D([], [], ls="none", marker="o", color="gold", mec="k"),
+        ],
+        [
+            "bounded",
+            "growing",
+            "theory (docs/physics.md section 4, amplification matrix)",
+            "measured: first growing omega0 dt",
+        ],
+        loc="lower center",
+        ncol=4,
+        fontsize=8,
+        frameon=False,
+    )
+    fig.suptitle(
+        "Stability map: a ball oscillating on the floor (a linear oscillator while in contact); growing = energy "
+        "over the last 200 of 4,000 steps > 1.01 x the first 200's, or > 1e4 x the start",
+        fontsize=10,
+    )
     fig.tight_layout(rect=(0, 0.07, 1, 0.93))
     fig.savefig(path, dpi=64)
     plt.close(fig)
@@ -385,16 +430,22 @@ def plot_tunnelling(rows, speeds, dts, path):
                 handles.append(h)
                 labs.append(lab)
     fig.legend(handles, labs, loc="lower center", ncol=7, fontsize=8, frameon=False, markerscale=1.5)
-    fig.suptitle(f"Tunnelling: a ball (r = {TUN_R} m) hits the terrain at speed v, zeta = {TUN_ZETA}, "
-                 f"worst of {TUN_PHASES} phases", fontsize=10)
+    fig.suptitle(
+        f"Tunnelling: a ball (r = {TUN_R} m) hits the terrain at speed v, zeta = {TUN_ZETA}, "
+        f"worst of {TUN_PHASES} phases",
+        fontsize=10,
+    )
     fig.tight_layout(rect=(0, 0.08, 1, 0.93))
     fig.savefig(path, dpi=64)
     plt.close(fig)
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(prog="python -m penalty_env.bench stability", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m penalty_env.bench stability",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--quick", action="store_true", help="coarser maps and 5,000 env steps (CI smoke run)")
     ap.add_argument("--out", default=None, help="folder for the PNGs and CSVs (default: docs/ of the repository)")
     ap.add_argument("--env-steps", type=int, default=None, help="env steps of part (c) (default 100,000)")
@@ -442,13 +493,21 @@ def main(argv=None) -> None:
             wr.writerow(["integrator", "speed", "dt", "outcome", "max_overlap_over_r", "exit_energy_ratio"])
             wr.writerows((i, f"{s:.4g}", f"{dt:.4g}", o, f"{p:.4g}", f"{g:.4g}") for i, s, dt, o, p, g in trows)
         plot_tunnelling(trows, speeds, dts, os.path.join(out, "tunnelling.png"))
-        print("(b) tunnelling: smallest omega0 dt with an energy gain, at v / (omega0 r) = 0.1; "
-              "smallest v / (omega0 r) passing through at omega0 dt = 0.01")
+        print(
+            "(b) tunnelling: smallest omega0 dt with an energy gain, at v / (omega0 r) = 0.1; "
+            "smallest v / (omega0 r) passing through at omega0 dt = 0.01"
+        )
         for integ in INTEGRATORS:
-            gain = [dt * omega for i, s, dt, o, _, _ in trows if i == integ and o == 1 and abs(s / (omega * TUN_R) - 0.1) < 0.05]
+            gain = [
+                dt * omega
+                for i, s, dt, o, _, _ in trows
+                if i == integ and o == 1 and abs(s / (omega * TUN_R) - 0.1) < 0.05
+            ]
             thru = [s / (omega * TUN_R) for i, s, dt, o, _, _ in trows if i == integ and o == 2 and dt * omega < 0.012]
-            print(f"    {SHORT[integ]:17s} energy gain from omega0 dt = {min(gain) if gain else float('nan'):.3g}; "
-                  f"passes through from v = {min(thru) if thru else float('nan'):.3g} omega0 r")
+            print(
+                f"    {SHORT[integ]:17s} energy gain from omega0 dt = {min(gain) if gain else float('nan'):.3g}; "
+                f"passes through from v = {min(thru) if thru else float('nan'):.3g} omega0 r"
+            )
     if "env" not in skip:
         n = args.env_steps or (5_000 if args.quick else 100_000)
         try:
@@ -456,15 +515,17 @@ def main(argv=None) -> None:
         except Exception as exc:  # the env is optional for the physics benchmarks
             print(f"(c) environment stress test could not run: {type(exc).__name__}: {exc}")
         else:
-            print(f"(c) PenaltyBalls-v0, pusher at full throttle into the ball for {res['steps']:,} steps "
-                  f"({res['integrator']}, dt {res['dt']:.4g} s x {res['substeps']} substeps, {res['wall_s']:.1f} s): "
-                  f"worst overlap {res['worst_overlap']:.4f} r (tolerance {res['penetration_tolerance']:g} r); "
-                  f"energy {res['drive_energy_final']:.4f} J at the end of the drive (growth over the last fifth "
-                  f"{res['drive_energy_growth']:.2g}; checked from 50,000 steps), at most "
-                  f"{res['energy_beyond_motor_work']:.3g} J above the start plus the motor's work "
-                  f"({res['motor_work_bound']:.4g} J), then falls by {res['release_energy_drop']:.4f} J with the "
-                  f"throttle released (largest one-step rise {res['release_largest_rise']:.3g} J); NaN: {res['nan']}; "
-                  f"{'OK' if res['ok'] else 'FAILED'}")
+            print(
+                f"(c) PenaltyBalls-v0, pusher at full throttle into the ball for {res['steps']:,} steps "
+                f"({res['integrator']}, dt {res['dt']:.4g} s x {res['substeps']} substeps, {res['wall_s']:.1f} s): "
+                f"worst overlap {res['worst_overlap']:.4f} r (tolerance {res['penetration_tolerance']:g} r); "
+                f"energy {res['drive_energy_final']:.4f} J at the end of the drive (growth over the last fifth "
+                f"{res['drive_energy_growth']:.2g}; checked from 50,000 steps), at most "
+                f"{res['energy_beyond_motor_work']:.3g} J above the start plus the motor's work "
+                f"({res['motor_work_bound']:.4g} J), then falls by {res['release_energy_drop']:.4f} J with the "
+                f"throttle released (largest one-step rise {res['release_largest_rise']:.3g} J); NaN: {res['nan']}; "
+                f"{'OK' if res['ok'] else 'FAILED'}"
+            )
             if not res["ok"]:
                 failed.append("(c) environment stress test")
     print(f"stability benchmark done in {time.perf_counter() - t0:.1f} s")

@@ -26,12 +26,18 @@ from ..physics.broadphase import contacts
 from ..physics.contact import MAXPEN
 from .observation import GOAL, POSITION, VELOCITY
 
-__all__ = ["TaskParams", "StepBuffers", "INFO_KEYS", "new_buffers", "step_worlds", "first_bad_action",
-           "OK"]
+__all__ = ["TaskParams", "StepBuffers", "INFO_KEYS", "new_buffers", "step_worlds", "first_bad_action", "OK"]
 
 # the info dict's keys, in order (every key a StepBuffers field of that name; is_success <- success)
-INFO_KEYS = ("reward_goal", "reward_reach", "reward_success", "distance", "pusher_distance", "max_overlap",
-             "is_success")
+INFO_KEYS = (
+    "reward_goal",
+    "reward_reach",
+    "reward_success",
+    "distance",
+    "pusher_distance",
+    "max_overlap",
+    "is_success",
+)
 _FLOAT_INFO = INFO_KEYS[:-1]
 
 # return code of ``step_worlds`` when every action was finite (the number of blown-up worlds is
@@ -81,9 +87,12 @@ class StepBuffers(NamedTuple):
 def new_buffers(n_worlds: int, obs_size: int) -> StepBuffers:
     """Buffers for n_worlds worlds."""
     return StepBuffers(
-        obs=np.zeros((n_worlds, obs_size), dtype=np.float32), reward=np.zeros(n_worlds),
-        info=np.zeros((len(_FLOAT_INFO), n_worlds)), success=np.zeros(n_worlds, dtype=np.bool_),
-        prev=np.zeros((2, n_worlds)), status=np.zeros(n_worlds, dtype=np.int64),
+        obs=np.zeros((n_worlds, obs_size), dtype=np.float32),
+        reward=np.zeros(n_worlds),
+        info=np.zeros((len(_FLOAT_INFO), n_worlds)),
+        success=np.zeros(n_worlds, dtype=np.bool_),
+        prev=np.zeros((2, n_worlds)),
+        status=np.zeros(n_worlds, dtype=np.int64),
     )
 
 
@@ -176,8 +185,9 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, st
 
 
 @njit(nogil=True)
-def step_worlds(worlds, act, stepping, x, v, scratch, ids, model, friction, g, dt, substeps, task, table, bounds,
-                goal, buf):
+def step_worlds(
+    worlds, act, stepping, x, v, scratch, ids, model, friction, g, dt, substeps, task, table, bounds, goal, buf
+):
     """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
     observe them without stepping). ``x``, ``v``, ``model``, ``friction`` and ``g`` are the
     World's own (``World.state``, ``World.model``); gravity's length D compiles the D-dimensional

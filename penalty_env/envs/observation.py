@@ -93,7 +93,10 @@ class ObservationLayout:
         """The docstring table: index range, field, bounds."""
         rows = ["| Index | Observation | Min | Max |", "|---|---|---|---|"]
         for k, f in enumerate(self.fields):
-            lo, hi = {POSITION: ("-R (up: 0)", "R (up: 2R)"), VELOCITY: ("-v_bound", "v_bound"),
-                      DIFFERENCE: ("-2R", "2R")}[f.kind]
+            lo, hi = {
+                POSITION: ("-R (up: 0)", "R (up: 2R)"),
+                VELOCITY: ("-v_bound", "v_bound"),
+                DIFFERENCE: ("-2R", "2R"),
+            }[f.kind]
             rows.append(f"| {k * self.dim} : {(k + 1) * self.dim} | {f.name} | {lo} | {hi} |")
         return "\n".join(rows)

@@ -54,11 +54,15 @@ def _check_options(options: Any, allowed: tuple[str, ...] = ()) -> dict[str, Any
     if options is None:
         return {}
     if not isinstance(options, Mapping):
-        raise V.ArgumentTypeError(f"options must be None or a dict, got {V.describe(options)} ({type(options).__name__})")
+        raise V.ArgumentTypeError(
+            f"options must be None or a dict, got {V.describe(options)} ({type(options).__name__})"
+        )
     unknown = [k for k in options if k not in allowed]
     if unknown:
-        raise ValueError(f"options has unknown key(s) {', '.join(map(repr, unknown))}; PenaltyBalls accepts "
-                         f"{', '.join(map(repr, allowed)) or 'none'}")
+        raise ValueError(
+            f"options has unknown key(s) {', '.join(map(repr, unknown))}; PenaltyBalls accepts "
+            f"{', '.join(map(repr, allowed)) or 'none'}"
+        )
     return dict(options)
 
 
@@ -250,7 +254,9 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
             self.render()
         return self._obs[0].copy(), float(self._buffers.reward[0]), bool(self._buffers.success[0]), False, info
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         seed = _check_seed(seed)
         _check_options(options)
         super().reset(seed=seed)
@@ -273,8 +279,9 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
         if self.render_mode == "rgb_array":
             return frame
         if self._window is None:
-            self._window = HumanWindow(frame.shape[1], frame.shape[0], self.metadata["render_fps"],
-                                       title=f"PenaltyBalls ({self.dim}D)")
+            self._window = HumanWindow(
+                frame.shape[1], frame.shape[0], self.metadata["render_fps"], title=f"PenaltyBalls ({self.dim}D)"
+            )
         self._window.show(frame)
         return None
 
@@ -314,7 +321,11 @@ class PenaltyBallsVectorEnv(VectorEnv):
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         **kwargs: Any,
     ) -> None:
-        if isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, (int, np.integer)) or max_episode_steps < 1:
+        if (
+            isinstance(max_episode_steps, bool)
+            or not isinstance(max_episode_steps, (int, np.integer))
+            or max_episode_steps < 1
+        ):
             raise ValueError(f"max_episode_steps must be an int >= 1, got {max_episode_steps!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
@@ -324,8 +335,9 @@ class PenaltyBallsVectorEnv(VectorEnv):
             raise ValueError(
                 f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}"
             ) from None
-        self.scene = PenaltyBallsScene(V.integer("num_envs", num_envs, 1), dim=dim,
-                                       owner="PenaltyBallsVectorEnv.__init__", **kwargs)
+        self.scene = PenaltyBallsScene(
+            V.integer("num_envs", num_envs, 1), dim=dim, owner="PenaltyBallsVectorEnv.__init__", **kwargs
+        )
         self.num_envs = self.scene.n_worlds
         self.dim = self.scene.dim
         self.max_episode_steps = int(max_episode_steps)
@@ -348,8 +360,9 @@ class PenaltyBallsVectorEnv(VectorEnv):
         self._never = np.zeros(N, dtype=np.bool_)
 
     # ------------------------------------------------------------------ Gymnasium API
-    def reset(self, *, seed: int | list[int | None] | None = None,
-              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         N = self.num_envs
         options = _check_options(options, ("reset_mask",))
         if seed is None or isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
@@ -360,14 +373,18 @@ class PenaltyBallsVectorEnv(VectorEnv):
             if len(seeds) != N:
                 raise ValueError(f"seed must be None, an int or a list of {N} seeds (one per world), got {len(seeds)}")
         else:
-            raise V.ArgumentTypeError(f"seed must be None, an int >= 0 or a list of {N} of them, got {V.describe(seed)}")
+            raise V.ArgumentTypeError(
+                f"seed must be None, an int >= 0 or a list of {N} of them, got {V.describe(seed)}"
+            )
         mask = options.pop("reset_mask", None)
         if seed is None or isinstance(seed, int):
             super().reset(seed=seed)
         if mask is None:
             mask = self._ones
         elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (N,) and mask.any()):
-            raise ValueError(f"options['reset_mask'] must be a bool array of shape ({N},) with a True value, got {mask!r}")
+            raise ValueError(
+                f"options['reset_mask'] must be a bool array of shape ({N},) with a True value, got {mask!r}"
+            )
         idx = np.flatnonzero(mask)
         for i in idx:
             if seeds[i] is not None or self._rngs[i] is None:

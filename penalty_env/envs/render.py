@@ -69,8 +69,15 @@ def _sphere(img, cx, cy, rad, r, g, b, lx, ly, lz):
             diff = max(0.0, nx * lx + ny * ly + nz * lz)
             spec = max(0.0, nx * hx + ny * hy + nz * hz) ** 40
             shade = 0.35 + 0.75 * diff
-            _blend(img, px, py, 255.0 * min(1.0, r * shade + 0.6 * spec),
-                   255.0 * min(1.0, g * shade + 0.6 * spec), 255.0 * min(1.0, b * shade + 0.6 * spec), cover)
+            _blend(
+                img,
+                px,
+                py,
+                255.0 * min(1.0, r * shade + 0.6 * spec),
+                255.0 * min(1.0, g * shade + 0.6 * spec),
+                255.0 * min(1.0, b * shade + 0.6 * spec),
+                cover,
+            )
 
 
 @njit
@@ -131,10 +138,20 @@ def _draw_3d(img, pos, radii, colors, goal, goal_tol, R, scale, order):
     # goal: ring of the success radius, faint fill, centre dot
     gx = ox + goal[0] * scale
     gy = oy - goal[1] * scale
-    _ring(img, gx, gy, goal_tol * scale, max(1.5, 0.012 * W), 255.0 * GOAL_COLOR[0], 255.0 * GOAL_COLOR[1],
-          255.0 * GOAL_COLOR[2], 0.3)
-    _ring(img, gx, gy, 0.0, max(2.0, 0.012 * W), 255.0 * GOAL_COLOR[0], 255.0 * GOAL_COLOR[1],
-          255.0 * GOAL_COLOR[2], 0.0)
+    _ring(
+        img,
+        gx,
+        gy,
+        goal_tol * scale,
+        max(1.5, 0.012 * W),
+        255.0 * GOAL_COLOR[0],
+        255.0 * GOAL_COLOR[1],
+        255.0 * GOAL_COLOR[2],
+        0.3,
+    )
+    _ring(
+        img, gx, gy, 0.0, max(2.0, 0.012 * W), 255.0 * GOAL_COLOR[0], 255.0 * GOAL_COLOR[1], 255.0 * GOAL_COLOR[2], 0.0
+    )
     n = pos.shape[0]
     # shadows first: cast away from the light, farther the higher the ball floats
     for i in range(n):
@@ -211,8 +228,12 @@ def _background_3d(W: int, H: int, R: float, scale: float) -> np.ndarray:
     img = sand[None, None, :] * np.clip(shade, 0.55, 1.1)[..., None]
     # contour lines: darken where the height is near a multiple of CONTOUR_STEP
     phase = Z / CONTOUR_STEP
-    frac = np.abs(phase - np.round(phase)) * CONTOUR_STEP * scale / np.maximum(
-        np.sqrt(rho2) / np.maximum(R - Z, 1e-9), 1e-3)  # pixel distance to the nearest contour
+    frac = (
+        np.abs(phase - np.round(phase))
+        * CONTOUR_STEP
+        * scale
+        / np.maximum(np.sqrt(rho2) / np.maximum(R - Z, 1e-9), 1e-3)
+    )  # pixel distance to the nearest contour
     line = np.clip(1.0 - frac, 0.0, 1.0) * (np.round(phase) > 0)
     img *= (1.0 - 0.18 * line)[..., None]
     return np.clip(255.0 * img + 0.5, 0, 255).astype(np.uint8)
@@ -261,11 +282,11 @@ class Renderer:
         pos = np.ascontiguousarray(s.world.positions[b])
         goal = np.ascontiguousarray(s.goal[b])
         if s.dim == 3:
-            _draw_3d(img, pos, self.radii, self.colors, goal, s.goal_tolerance, s.bowl_radius,
-                     self.scale, self._order)
+            _draw_3d(img, pos, self.radii, self.colors, goal, s.goal_tolerance, s.bowl_radius, self.scale, self._order)
         else:
-            _draw_2d(img, pos, self.radii, self.colors, goal, s.goal_tolerance, s.bowl_radius,
-                     self.scale, self.ground_px)
+            _draw_2d(
+                img, pos, self.radii, self.colors, goal, s.goal_tolerance, s.bowl_radius, self.scale, self.ground_px
+            )
         return img
 
 
@@ -278,9 +299,7 @@ class HumanWindow:
         except ImportError as exc:  # pragma: no cover - depends on the install
             from gymnasium.error import DependencyNotInstalled
 
-            raise DependencyNotInstalled(
-                'render_mode="human" needs pygame: pip install "penalty-env[render]"'
-            ) from exc
+            raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "penalty-env[render]"') from exc
         self._pygame = pygame
         pygame.display.init()
         pygame.display.set_caption(title)

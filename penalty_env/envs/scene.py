@@ -45,7 +45,12 @@ PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
     "friction": (0.3, 0.0, 1.5, "Coulomb friction coefficient mu of every contact"),
     "restitution": (0.3, 0.22, 1.0, "coefficient of restitution of a pusher-ball impact"),
     "penetration_tolerance": (0.1, 0.01, 0.5, "overlap / radius of a pusher-ball impact at max_speed"),
-    "restitution_accuracy": (0.3, 0.05, 0.5, "largest relative error of the pusher-ball restitution (worst case); sets the substep"),
+    "restitution_accuracy": (
+        0.3,
+        0.05,
+        0.5,
+        "largest relative error of the pusher-ball restitution (worst case); sets the substep",
+    ),
     "max_speed": (1.0, 0.1, 5.0, "pusher motor's no-load speed, m/s"),
     "max_force": (20.0, 0.5, 500.0, "pusher motor's stall force, N"),
     "goal_tolerance": (0.1, 0.02, 0.3, "success radius around the goal, m"),
@@ -70,6 +75,7 @@ OBSTACLE_TRIES = 10_000
 W_GOAL = 10.0  # per metre the ball gets closer to the goal
 W_REACH = 1.0  # per metre the pusher gets closer to the push point behind the ball
 SUCCESS_BONUS = 10.0
+
 
 def check_parameters(dim: int, params: dict[str, Any], owner: str = "PenaltyBallsEnv.__init__") -> dict[str, Any]:
     """Validated keyword arguments, defaults filled in. Raises ValueError naming the bad argument,
@@ -138,10 +144,19 @@ class PenaltyBallsScene:
         # dashpot (one ks, kd per scene): a heavier pair rebounds more, a lighter one less, and the
         # stability limit below covers every pair.
         self.config = configure(
-            self.masses[:2], self.radii[:2], max_impact_speed=p["max_speed"], penetration=p["penetration_tolerance"],
-            restitution=p["restitution"], accuracy=p["restitution_accuracy"], damping="no_tension",
-            terrain=False, integrators=("symplectic_euler",), events=False, max_dt=self.control_period,
-            max_force=p["max_force"], energy_budget=None,  # v0's substep rule (its episodes stay as they were)
+            self.masses[:2],
+            self.radii[:2],
+            max_impact_speed=p["max_speed"],
+            penetration=p["penetration_tolerance"],
+            restitution=p["restitution"],
+            accuracy=p["restitution_accuracy"],
+            damping="no_tension",
+            terrain=False,
+            integrators=("symplectic_euler",),
+            events=False,
+            max_dt=self.control_period,
+            max_force=p["max_force"],
+            energy_budget=None,  # v0's substep rule (its episodes stay as they were)
         )
         self.ks = self.config.ks
         self.kd = self.config.kd
@@ -157,8 +172,14 @@ class PenaltyBallsScene:
         gravity = (0.0,) * (d - 1) + (-self.gravity,)
         start = self._placeholder_positions()
         common: dict[str, Any] = dict(
-            terrain=(self.bowl,), gravity=gravity, ks=self.ks, kd=self.kd, ks_terrain=self.ks_terrain,
-            kd_terrain=self.kd_terrain, damping="no_tension", integrator="symplectic_euler",
+            terrain=(self.bowl,),
+            gravity=gravity,
+            ks=self.ks,
+            kd=self.kd,
+            ks_terrain=self.ks_terrain,
+            kd_terrain=self.kd_terrain,
+            damping="no_tension",
+            integrator="symplectic_euler",
             broadphase="all_pairs",
         )
         probe = World(start[0], self.radii, self.masses, dt=self.control_period, allow_unstable=True, **common)
@@ -190,14 +211,19 @@ class PenaltyBallsScene:
         self.vel_bound = max(10.0 * p["max_speed"], math.sqrt(4.0 * self.gravity * R))
         self.layout = ObservationLayout(d, self.n_obstacles, pos_bound, self.vel_bound)
         self.obs_size = self.layout.size
-        self.observation_space = spaces.Box(self.layout.low.astype(np.float32), self.layout.high.astype(np.float32),
-                                            dtype=np.float32)
+        self.observation_space = spaces.Box(
+            self.layout.low.astype(np.float32), self.layout.high.astype(np.float32), dtype=np.float32
+        )
         self.action_space = spaces.Box(-1.0, 1.0, (self.action_size,), dtype=np.float32)
 
         # --- the task's constants the kernel reads (the contact model is the World's own)
         self.task = KE.TaskParams(
-            max_force=p["max_force"], max_speed=p["max_speed"], w_goal=W_GOAL, w_reach=W_REACH,
-            success_bonus=SUCCESS_BONUS, goal_tolerance=self.goal_tolerance,
+            max_force=p["max_force"],
+            max_speed=p["max_speed"],
+            w_goal=W_GOAL,
+            w_reach=W_REACH,
+            success_bonus=SUCCESS_BONUS,
+            goal_tolerance=self.goal_tolerance,
             push_offset=p["pusher_radius"] + p["ball_radius"],
         )
         # resting overlap m g / ks puts each ball at rest on the terrain at the start
@@ -226,8 +252,18 @@ class PenaltyBallsScene:
         # so writing the state in the kernel leaves nothing stale.
         state, model = self.world.state, self.world.model
         self._state = (state.positions, state.velocities)
-        self._tail = (model, model.friction, model.gravity, self.dt, self.substeps, self.task, self.layout.table,
-                      np.stack([self.layout.low, self.layout.high]), self.goal, self.buffers)
+        self._tail = (
+            model,
+            model.friction,
+            model.gravity,
+            self.dt,
+            self.substeps,
+            self.task,
+            self.layout.table,
+            np.stack([self.layout.low, self.layout.high]),
+            self.goal,
+            self.buffers,
+        )
         # the arguments of a whole-batch step, made once, and the kernel compiled for their types
         # (called without Numba's per-call type resolution: the arguments are fixed)
         self._step_calls = self._calls(self._chunks)
@@ -282,8 +318,9 @@ class PenaltyBallsScene:
         )
 
     # ------------------------------------------------------------------ resets
-    def reset_worlds(self, worlds: Sequence[int] | np.ndarray, rngs: Sequence[np.random.Generator | None],
-                     observe: bool = True) -> None:
+    def reset_worlds(
+        self, worlds: Sequence[int] | np.ndarray, rngs: Sequence[np.random.Generator | None], observe: bool = True
+    ) -> None:
         """Draw a new start for each world in ``worlds`` from the matching generator in ``rngs``,
         and (``observe``) compute its observation. With ``observe=False`` the world's flag is left
         off, so the next ``step`` observes it without stepping it."""

@@ -28,8 +28,10 @@ class ScriptedPusher:
         self.contact = float(contact)
         layout = ObservationLayout(self.dim, 0, 1.0, 1.0)  # field positions only (obstacles come last)
         h = self.dim - 1  # the horizontal part of each position
-        self._pusher, self._ball, self._goal = (slice(layout.slice(name).start, layout.slice(name).start + h)
-                                                for name in ("pusher position", "ball position", "goal position"))
+        self._pusher, self._ball, self._goal = (
+            slice(layout.slice(name).start, layout.slice(name).start + h)
+            for name in ("pusher position", "ball position", "goal position")
+        )
 
     @classmethod
     def for_env(cls, env) -> ScriptedPusher:

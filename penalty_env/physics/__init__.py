@@ -27,4 +27,16 @@ from .model import Model, State
 from .shapes import Bowl, Shape, Sphere
 from .world import EnergyDriftWarning, StartOverlapWarning, World
 
-__all__ = ["World", "EnergyDriftWarning", "StartOverlapWarning", "Model", "State", "Bowl", "Sphere", "Shape", "theory", "implicit_overlap", "ImplicitOverlap"]
+__all__ = [
+    "World",
+    "EnergyDriftWarning",
+    "StartOverlapWarning",
+    "Model",
+    "State",
+    "Bowl",
+    "Sphere",
+    "Shape",
+    "theory",
+    "implicit_overlap",
+    "ImplicitOverlap",
+]

@@ -20,8 +20,18 @@ import numpy as np
 from .._jit import njit
 from .contact import FORCE, combine, pair_contact, terrain_contact
 
-__all__ = ["Grid", "new_grid", "build_grid", "neighbour_rows", "grid_neighbours", "contacts", "contact_forces",
-           "contacts_all_pairs", "contacts_grid", "GRID_MIN_BALLS"]
+__all__ = [
+    "Grid",
+    "new_grid",
+    "build_grid",
+    "neighbour_rows",
+    "grid_neighbours",
+    "contacts",
+    "contact_forces",
+    "contacts_all_pairs",
+    "contacts_grid",
+    "GRID_MIN_BALLS",
+]
 
 # ``broadphase="auto"`` uses the grid from this many balls per world (measured crossover:
 # ``python -m penalty_env.bench core``, section c).
@@ -153,8 +163,7 @@ def neighbour_rows(b, i, x, grid, D):
     cx = _cell_coord(x[b, i, 0], grid.geom[b, 0], inv_h, nx)
     cy = _cell_coord(x[b, i, 1], grid.geom[b, 1], inv_h, ny)
     cz = _cell_coord(x[b, i, 2], grid.geom[b, 2], inv_h, nz) if D == 3 else 0
-    return (max(cx - 1, 0), min(cx + 2, nx), max(cy - 1, 0), min(cy + 2, ny), max(cz - 1, 0), min(cz + 2, nz),
-            nx, ny)
+    return (max(cx - 1, 0), min(cx + 2, nx), max(cy - 1, 0), min(cy + 2, ny), max(cz - 1, 0), min(cz + 2, nz), nx, ny)
 
 
 @njit(inline="always")
@@ -209,4 +218,3 @@ def contacts(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction,
     if grid is not None:
         return contacts_grid(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, friction, g)
     return contacts_all_pairs(mode, b, x, v, out, coef_pair, coef_terrain, model, friction, g)
-

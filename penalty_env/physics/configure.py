@@ -108,8 +108,13 @@ def _model_key(integrator: str, events: bool, damping: str, metric: str, zeta: f
 
 def _models_at(integrator: str, events: bool, damping: str, metric: str, zeta: float) -> list[tuple[float, dict]]:
     """[(zeta_k, model)] at the measured zetas that bracket ``zeta`` (one or two)."""
-    zetas = sorted({float(k.split("|")[4]) for k in ERROR_MODELS
-                    if k.startswith(f"{integrator}|{'events' if events else 'plain'}|{damping}|{metric}|")})
+    zetas = sorted(
+        {
+            float(k.split("|")[4])
+            for k in ERROR_MODELS
+            if k.startswith(f"{integrator}|{'events' if events else 'plain'}|{damping}|{metric}|")
+        }
+    )
     if not zetas:
         return []
     if zeta > zetas[-1] * (1.0 + 1e-9):
@@ -139,8 +144,9 @@ def _model_error(mdl: dict, spc: float) -> float:
     return max(pts[0][1], mdl["floor"])
 
 
-def predicted_error(integrator: str, events: bool, damping: str, zeta: float, steps_per_contact: float,
-                    metric: str = "restitution") -> float:
+def predicted_error(
+    integrator: str, events: bool, damping: str, zeta: float, steps_per_contact: float, metric: str = "restitution"
+) -> float:
     """Worst-case relative error predicted by the fitted models, interpolated linearly in zeta
     between the two measured zetas around it (errors grow about linearly with the dashpot's jump
     2 zeta omega0 v); inf where no model covers the point (unstable, or outside the fit)."""
@@ -215,8 +221,16 @@ class ContactConfig:
     alternatives: list = field(default_factory=list)  # (cost, integrator, events, steps) considered
 
     def world_kwargs(self) -> dict:
-        return dict(ks=self.ks, kd=self.kd, ks_terrain=self.ks_terrain, kd_terrain=self.kd_terrain,
-                    damping=self.damping, integrator=self.integrator, dt=self.dt, events=self.events)
+        return dict(
+            ks=self.ks,
+            kd=self.kd,
+            ks_terrain=self.ks_terrain,
+            kd_terrain=self.kd_terrain,
+            damping=self.damping,
+            integrator=self.integrator,
+            dt=self.dt,
+            events=self.events,
+        )
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -276,10 +290,11 @@ def configure(
     m = V.real_array("masses", masses).reshape(-1)
     r = V.real_array("radii", radii).reshape(-1)
     if m.size == 0 or r.size != m.size or np.any(m <= 0) or np.any(r <= 0):
-        raise ValueError(f"masses and radii must be equal-length sequences of numbers > 0, got {m.size} masses "
-                         f"(min {m.min() if m.size else 'none'}) and {r.size} radii (min {r.min() if r.size else 'none'})")
-    for name, val in (("max_impact_speed", max_impact_speed), ("penetration", penetration),
-                      ("accuracy", accuracy)):
+        raise ValueError(
+            f"masses and radii must be equal-length sequences of numbers > 0, got {m.size} masses "
+            f"(min {m.min() if m.size else 'none'}) and {r.size} radii (min {r.min() if r.size else 'none'})"
+        )
+    for name, val in (("max_impact_speed", max_impact_speed), ("penetration", penetration), ("accuracy", accuracy)):
         V.positive(name, val)
     V.choice("damping", damping, DAMPING_MODES)
     V.flag("terrain", terrain)
@@ -320,14 +335,16 @@ def configure(
         raise ValueError(
             f"the lightest contact would be overdamped (zeta = {max(zetas):.3g} >= 1: it never ends) "
             f"with restitution {restitution} set for the heaviest; ask for a larger restitution or "
-            f"closer masses")
+            f"closer masses"
+        )
     zeta_models = max(float(k.split("|")[4]) for k in ERROR_MODELS)
     if max(zetas) > zeta_models * (1.0 + 1e-9):
         e_min = restitution_for_zeta(zeta_models, damping)
         raise ValueError(
             f"the most damped contact would have zeta = {max(zetas):.3g}, beyond the measured error models "
             f"(zeta <= {zeta_models:g}, restitution >= {e_min:.3g} with {damping} damping); ask for a larger "
-            f"restitution or closer masses")
+            f"restitution or closer masses"
+        )
     t_cs = [theory.contact_time(k, c, me) for k, c, me in contacts]
     t_c_min = min(t_cs)
 
@@ -363,7 +380,8 @@ def configure(
     if not options:
         raise ValueError(
             f"no measured integrator meets accuracy {accuracy:g} on restitution at zeta {zeta_ref:.3g} "
-            f"({damping}); loosen the tolerance")
+            f"({damping}); loosen the tolerance"
+        )
     options.sort(key=lambda o: o[0])
     cost, integ, ev, spc, dt = options[0]
     pred = {}
@@ -376,8 +394,10 @@ def configure(
     scale = 1.0
     g = abs(float(gravity))
     for _ in range(30):
-        need = max(peak_overlap_ratio(z, g / (w * scale * v)) * (1.0 + ep) * v / (w * delta_tol)
-                   for z, w, ep in zip(zetas, omegas, err_peak))
+        need = max(
+            peak_overlap_ratio(z, g / (w * scale * v)) * (1.0 + ep) * v / (w * delta_tol)
+            for z, w, ep in zip(zetas, omegas, err_peak)
+        )
         new_scale = max(1.0, need)
         if abs(new_scale - scale) <= 1e-12 * scale:
             break
@@ -386,9 +406,21 @@ def configure(
     dt /= scale
     t_c_min /= scale
     return ContactConfig(
-        ks=ks, kd=kd, ks_terrain=ks_t, kd_terrain=kd_t, damping=damping, integrator=integ, events=ev, dt=dt,
-        steps_per_contact=spc, zeta=zeta_ref, zeta_range=(min(zetas), max(zetas)),
+        ks=ks,
+        kd=kd,
+        ks_terrain=ks_t,
+        kd_terrain=kd_t,
+        damping=damping,
+        integrator=integ,
+        events=ev,
+        dt=dt,
+        steps_per_contact=spc,
+        zeta=zeta_ref,
+        zeta_range=(min(zetas), max(zetas)),
         restitution_range=(restitution_for_zeta(max(zetas), damping), restitution_for_zeta(min(zetas), damping)),
-        contact_time=t_c_min, predicted_error=pred, cost_per_contact=cost, cost_per_second=cost / t_c_min,
+        contact_time=t_c_min,
+        predicted_error=pred,
+        cost_per_contact=cost,
+        cost_per_second=cost / t_c_min,
         alternatives=[(round(o[0], 3), o[1], o[2], round(o[3], 3)) for o in options],
     )

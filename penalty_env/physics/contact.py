@@ -54,13 +54,26 @@ from .._jit import njit
 from .shapes import BOWL, SPHERE  # terrain shape kinds
 
 __all__ = [
-    "FORCE", "ENERGY", "LINEAR", "DIAG", "MAXPEN", "SPHERE", "BOWL",
-    "pair_contact", "terrain_contact", "pair_gap", "terrain_gap", "pair_normal", "terrain_normal",
-    "fallback_axis", "shape_sign", "shape_dist2", "combine",
+    "FORCE",
+    "ENERGY",
+    "LINEAR",
+    "DIAG",
+    "MAXPEN",
+    "SPHERE",
+    "BOWL",
+    "pair_contact",
+    "terrain_contact",
+    "pair_gap",
+    "terrain_gap",
+    "pair_normal",
+    "terrain_normal",
+    "fallback_axis",
+    "shape_sign",
+    "shape_dist2",
+    "combine",
 ]
 
 FORCE, ENERGY, LINEAR, DIAG, MAXPEN = 0, 1, 2, 3, 4
-
 
 
 # --------------------------------------------------------------------------------------------

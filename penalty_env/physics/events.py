@@ -82,8 +82,22 @@ EventBuffers = namedtuple(
 
 I_PHASE, I_KIND, I_I, I_J, I_CALLS, I_LAND, I_A0VALID, I_HAS_LO, I_HAS_HI, I_HAS_PREV = range(10)
 N_INTS = 10
-(F_TLEFT, F_TAU, F_THETA, F_MARGIN, F_SIGN, F_TLO, F_SGLO, F_THI, F_SGHI, F_TPREV, F_SGPREV, F_DELTA,
- F_SCAN_MARGIN, F_SCAN_SIGN) = range(14)
+(
+    F_TLEFT,
+    F_TAU,
+    F_THETA,
+    F_MARGIN,
+    F_SIGN,
+    F_TLO,
+    F_SGLO,
+    F_THI,
+    F_SGHI,
+    F_TPREV,
+    F_SGPREV,
+    F_DELTA,
+    F_SCAN_MARGIN,
+    F_SCAN_SIGN,
+) = range(14)
 N_FLTS = 14
 C_CALLS, C_EVALS, C_EVENTS, C_FALLBACKS, C_STEPS = range(5)
 N_COUNTS = 5
@@ -176,7 +190,12 @@ def _hermite(p0, v0, p1, v1, h, t):
     """Cubic Hermite interpolant of one coordinate over a step of length h, at fraction t."""
     t2 = t * t
     t3 = t2 * t
-    return (2.0 * t3 - 3.0 * t2 + 1.0) * p0 + (t3 - 2.0 * t2 + t) * h * v0 + (3.0 * t2 - 2.0 * t3) * p1 + (t3 - t2) * h * v1
+    return (
+        (2.0 * t3 - 3.0 * t2 + 1.0) * p0
+        + (t3 - 2.0 * t2 + t) * h * v0
+        + (3.0 * t2 - 2.0 * t3) * p1
+        + (t3 - t2) * h * v1
+    )
 
 
 @njit
@@ -338,8 +357,9 @@ def _pair_check(b, i, j, d0, d1, x0, v0, x1, v1, h, rk4, model, D, ev, best, cou
         near = (l0 * (1.0 - NEAR)) ** 2 if c1 else (l0 * (1.0 + NEAR)) ** 2
         if (c1 and d1 < near) or (not c1 and d1 > near):
             return best, count
-    best, flagged = _consider(KIND_PAIR, b, i, j, np.sqrt(d0) - l0, np.sqrt(d1) - l0, x0, v0, x1, v1, h, rk4,
-                             model, D, ev, best)
+    best, flagged = _consider(
+        KIND_PAIR, b, i, j, np.sqrt(d0) - l0, np.sqrt(d1) - l0, x0, v0, x1, v1, h, rk4, model, D, ev, best
+    )
     return best, count + (1 if flagged else 0)
 
 
@@ -371,8 +391,24 @@ def _grid_pass(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev, best, count):
                     j = grid.items[b, idx]
                     if j <= i:
                         continue
-                    best, count = _pair_check(b, i, j, _pair_d2(b, i, j, x0, D), _pair_d2(b, i, j, x1, D), x0, v0, x1,
-                                              v1, h, rk4, model, D, ev, best, count)
+                    best, count = _pair_check(
+                        b,
+                        i,
+                        j,
+                        _pair_d2(b, i, j, x0, D),
+                        _pair_d2(b, i, j, x1, D),
+                        x0,
+                        v0,
+                        x1,
+                        v1,
+                        h,
+                        rk4,
+                        model,
+                        D,
+                        ev,
+                        best,
+                        count,
+                    )
     return best, count
 
 
@@ -390,8 +426,24 @@ def scan(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev):
     if grid is None:
         for i in range(n):
             for j in range(i + 1, n):
-                best, count = _pair_check(b, i, j, _pair_d2(b, i, j, x0, D), _pair_d2(b, i, j, x1, D), x0, v0, x1, v1,
-                                          h, rk4, model, D, ev, best, count)
+                best, count = _pair_check(
+                    b,
+                    i,
+                    j,
+                    _pair_d2(b, i, j, x0, D),
+                    _pair_d2(b, i, j, x1, D),
+                    x0,
+                    v0,
+                    x1,
+                    v1,
+                    h,
+                    rk4,
+                    model,
+                    D,
+                    ev,
+                    best,
+                    count,
+                )
     else:
         best, count = _grid_pass(b, x0, v0, x1, v1, h, rk4, grid, model, g, ev, best, count)
     for i in range(n):
@@ -656,8 +708,10 @@ def forget_cache(work, b):
 @overload(forget_cache, inline="always")
 def _forget_cache(work, b):
     if _is(work, VelocityVerletWork):
+
         def impl(work, b):
             work.a0_valid[b] = False
+
         return impl
     return lambda work, b: None
 

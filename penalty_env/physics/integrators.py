@@ -41,9 +41,22 @@ from .broadphase import build_grid, contact_forces, contacts
 from .contact import DIAG, LINEAR
 
 __all__ = [
-    "INTEGRATORS", "ExplicitEulerWork", "SymplecticEulerWork", "VelocityVerletWork", "RK4Work", "ImplicitEulerWork",
-    "allocate_work", "integrate", "run_worlds", "accelerations", "symplectic_euler_into", "final_status",
-    "STATUS_OK", "STATUS_NONFINITE", "STATUS_CG", "FORCE_EVALUATIONS",
+    "INTEGRATORS",
+    "ExplicitEulerWork",
+    "SymplecticEulerWork",
+    "VelocityVerletWork",
+    "RK4Work",
+    "ImplicitEulerWork",
+    "allocate_work",
+    "integrate",
+    "run_worlds",
+    "accelerations",
+    "symplectic_euler_into",
+    "final_status",
+    "STATUS_OK",
+    "STATUS_NONFINITE",
+    "STATUS_CG",
+    "FORCE_EVALUATIONS",
 ]
 
 INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
@@ -347,14 +360,21 @@ def integrate(work, b, dt, x, v, ext, grid, model, friction, g):
     raise NotImplementedError("integrate is called from jitted code")
 
 
-@overload(integrate)  # not inlined: its callee must see ``grid``, ``ext`` and ``friction`` as arguments, so a None one is compiled away
+@overload(
+    integrate
+)  # not inlined: its callee must see ``grid``, ``ext`` and ``friction`` as arguments, so a None one is compiled away
 def _integrate(work, b, dt, x, v, ext, grid, model, friction, g):
-    for cls, step in ((ExplicitEulerWork, explicit_euler_step), (SymplecticEulerWork, symplectic_euler_step),
-                      (VelocityVerletWork, velocity_verlet_step), (RK4Work, rk4_step),
-                      (ImplicitEulerWork, implicit_euler_step)):
+    for cls, step in (
+        (ExplicitEulerWork, explicit_euler_step),
+        (SymplecticEulerWork, symplectic_euler_step),
+        (VelocityVerletWork, velocity_verlet_step),
+        (RK4Work, rk4_step),
+        (ImplicitEulerWork, implicit_euler_step),
+    ):
         if _is(work, cls):
-            return lambda work, b, dt, x, v, ext, grid, model, friction, g: step(work, b, dt, x, v, ext, grid, model,
-                                                                                 friction, g)
+            return lambda work, b, dt, x, v, ext, grid, model, friction, g: step(
+                work, b, dt, x, v, ext, grid, model, friction, g
+            )
     return None
 
 
@@ -366,8 +386,10 @@ def begin_world(work, b):
 @overload(begin_world, inline="always")
 def _begin_world(work, b):
     if _is(work, ImplicitEulerWork):
+
         def impl(work, b):
             work.cg_failed[b] = False
+
         return impl
     return lambda work, b: None
 
@@ -392,9 +414,11 @@ def world_status(work, b, ok, x, v, g):
 @overload(world_status, inline="always")
 def _world_status(work, b, ok, x, v, g):
     if _is(work, ImplicitEulerWork):
+
         def impl(work, b, ok, x, v, g):
             st = final_status(b, ok, x, v, g)
             return STATUS_CG if st == STATUS_OK and work.cg_failed[b] else st
+
         return impl
     return lambda work, b, ok, x, v, g: final_status(b, ok, x, v, g)
 

@@ -23,8 +23,16 @@ from .contact import FORCE, pair_contact, shape_dist2, terrain_contact
 from .contact_listed import pair_contact_listed
 from .integrators import STATUS_OK, final_status
 
-__all__ = ["LargeWorld", "NeighbourLists", "run_large", "LARGE_WORLD_MIN_BALLS", "NEIGHBOUR_SKIN",
-           "LARGE_WORLD_MAX_ESCAPES", "EXPLICIT_EULER", "SYMPLECTIC_EULER"]
+__all__ = [
+    "LargeWorld",
+    "NeighbourLists",
+    "run_large",
+    "LARGE_WORLD_MIN_BALLS",
+    "NEIGHBOUR_SKIN",
+    "LARGE_WORLD_MAX_ESCAPES",
+    "EXPLICIT_EULER",
+    "SYMPLECTIC_EULER",
+]
 
 # A world this large is stepped with its force loop parallel over balls (symplectic / explicit
 # Euler) instead of one world per thread.
@@ -43,10 +51,14 @@ EXPLICIT_EULER, SYMPLECTIC_EULER = 0, 1
 LargeWorld = namedtuple(
     "LargeWorld",
     [
-        "x", "v", "a", "ext",  # (1, n, D) state, accelerations and external force in storage order
+        "x",
+        "v",
+        "a",
+        "ext",  # (1, n, D) state, accelerations and external force in storage order
         "grid",  # Grid (one row) of the storage at the last build
         "perm",  # (n,) ball index of each storage slot
-        "order", "itmp",  # (n,) int scratch
+        "order",
+        "itmp",  # (n,) int scratch
         "tmp",  # (n, max(D, 2)) float scratch
         "nbr",  # (n, cap) int32 storage slots of each ball's listed neighbours, in grid order
         "count",  # (n,) int32 listed neighbours per ball
@@ -316,8 +328,9 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
                     s0 = 1 + 2 * q
                     _slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne)
                     s1 = min(s0 + 2, slabs)  # this slab and the next, contiguous in storage
-                m = _advance(integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, ext, sm, xref, escaped,
-                             half2, g)
+                m = _advance(
+                    integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, ext, sm, xref, escaped, half2, g
+                )
                 marked = -1 if (m < 0 or marked < 0) else marked + m
                 q = np.int64(t) if q < 0 else q + threads
             moved[t] = marked
@@ -348,7 +361,6 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
     return taken
 
 
-
 class NeighbourLists:
     """One neighbour list (:data:`LargeWorld`) per world of a batch, and its stepping.
 
@@ -364,24 +376,37 @@ class NeighbourLists:
         self.skin = NEIGHBOUR_SKIN * 2.0 * float(self.radii.max())
         self.worlds: list[tuple[LargeWorld, Any]] = []
         for _ in range(B):
-            self.worlds.append((
-                self._new(4 * (d - 1) ** 2 + 5),
-                model._replace(radii=self.radii.copy(), inv_mass=self.inv_mass.copy(),
-                               cell_size=model.cell_size + self.skin),
-            ))
+            self.worlds.append(
+                (
+                    self._new(4 * (d - 1) ** 2 + 5),
+                    model._replace(
+                        radii=self.radii.copy(), inv_mass=self.inv_mass.copy(), cell_size=model.cell_size + self.skin
+                    ),
+                )
+            )
         self.reset()
 
     def _new(self, cap: int) -> LargeWorld:
         n, d = self.n, self.d
         return LargeWorld(
-            x=np.zeros((1, n, d)), v=np.zeros((1, n, d)), a=np.zeros((1, n, d)), ext=np.zeros((1, n, d)),
-            grid=new_grid(1, n), perm=np.arange(n), order=np.zeros(n, dtype=np.int64),
-            itmp=np.zeros(n, dtype=np.int64), tmp=np.zeros((n, max(d, 2))), nbr=np.zeros((n, cap), dtype=np.int32),
-            count=np.zeros(n, dtype=np.int32), near=np.zeros(n, dtype=np.int8), xref=np.zeros((n, d)),
+            x=np.zeros((1, n, d)),
+            v=np.zeros((1, n, d)),
+            a=np.zeros((1, n, d)),
+            ext=np.zeros((1, n, d)),
+            grid=new_grid(1, n),
+            perm=np.arange(n),
+            order=np.zeros(n, dtype=np.int64),
+            itmp=np.zeros(n, dtype=np.int64),
+            tmp=np.zeros((n, max(d, 2))),
+            nbr=np.zeros((n, cap), dtype=np.int32),
+            count=np.zeros(n, dtype=np.int32),
+            near=np.zeros(n, dtype=np.int8),
+            xref=np.zeros((n, d)),
             escaped=np.zeros(n, dtype=np.int8),
             escapes=np.zeros(int(np.clip(n // 256, 64, LARGE_WORLD_MAX_ESCAPES)), dtype=np.int64),
             moved=np.zeros(self.threads, dtype=np.int64),  # one per thread
-            skin=self.skin, state=np.zeros(4, dtype=np.int64),
+            skin=self.skin,
+            state=np.zeros(4, dtype=np.int64),
         )
 
     def reset(self, worlds: Any = slice(None)) -> None:
@@ -394,15 +419,37 @@ class NeighbourLists:
             model.radii[:] = self.radii
             model.inv_mass[:] = self.inv_mass
 
-    def step(self, integ: int, n: int, dt: float, x: np.ndarray, v: np.ndarray, ext: np.ndarray | None,
-             friction: Any, g: tuple, status: np.ndarray) -> None:
+    def step(
+        self,
+        integ: int,
+        n: int,
+        dt: float,
+        x: np.ndarray,
+        v: np.ndarray,
+        ext: np.ndarray | None,
+        friction: Any,
+        g: tuple,
+        status: np.ndarray,
+    ) -> None:
         """Advance every world by n steps (world after world, each parallel over its balls)."""
         for b, (lw, model) in enumerate(self.worlds):
             w = slice(b, b + 1)
             done = 0
             while done < n:
-                done += run_large(integ, n - done, dt, x[w], v[w], None if ext is None else ext[w], model, friction,
-                                  g, status[w], lw, self.threads)
+                done += run_large(
+                    integ,
+                    n - done,
+                    dt,
+                    x[w],
+                    v[w],
+                    None if ext is None else ext[w],
+                    model,
+                    friction,
+                    g,
+                    status[w],
+                    lw,
+                    self.threads,
+                )
                 if status[b] != STATUS_OK:
                     break
                 if done < n:  # a ball has more neighbours than the list holds: grow it, go on
@@ -420,6 +467,11 @@ class NeighbourLists:
         lw = self.worlds[b][0]
         near = np.zeros(self.n, dtype=bool)
         near[lw.perm] = lw.near != 0
-        return {"builds": int(lw.state[2]), "escaped": int(lw.state[3]),
-                "listed_per_ball": float(lw.count.mean()), "largest": int(lw.state[1]),
-                "capacity": int(lw.nbr.shape[1]), "near_terrain": near}
+        return {
+            "builds": int(lw.state[2]),
+            "escaped": int(lw.state[3]),
+            "listed_per_ball": float(lw.count.mean()),
+            "largest": int(lw.state[1]),
+            "capacity": int(lw.nbr.shape[1]),
+            "near_terrain": near,
+        }

@@ -117,8 +117,18 @@ class Runner:
     validating its arguments.
     """
 
-    def __init__(self, path: str, integrator: str, events: bool, model: Any, state: Any, work: Any, grid: Any,
-                 status: np.ndarray, dt: float) -> None:
+    def __init__(
+        self,
+        path: str,
+        integrator: str,
+        events: bool,
+        model: Any,
+        state: Any,
+        work: Any,
+        grid: Any,
+        status: np.ndarray,
+        dt: float,
+    ) -> None:
         B, n, d = state.positions.shape
         self.path = path
         self.integrator = integrator
@@ -157,8 +167,10 @@ class Runner:
         if self.path == "lanes":
             sym = self.integrator == "symplectic_euler"
             ranges = split(B, balls * n, align=_lanes.LANES)
-            calls = [(sym, b0, b1, n, self.dt, x, v, self.lane_scratch[i], ext, model, friction, g, self.status)
-                     for i, (b0, b1) in enumerate(ranges)]
+            calls = [
+                (sym, b0, b1, n, self.dt, x, v, self.lane_scratch[i], ext, model, friction, g, self.status)
+                for i, (b0, b1) in enumerate(ranges)
+            ]
             fn = _lanes.run_lanes
         else:
             ranges = split(B, balls * n)

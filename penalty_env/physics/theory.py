@@ -236,7 +236,6 @@ def zeta_for_restitution(e: float, damping: str = "linear") -> float:
     return 0.5 * (lo + hi)
 
 
-
 # --- stability -------------------------------------------------------------------------------
 # Each explicit integrator applied to the damped oscillator x'' = -omega^2 x - 2 zeta omega x' is a
 # linear map of its state; it is stable while the spectral radius of that map is <= 1. We compute
@@ -419,8 +418,9 @@ def _collision_gains(integrator: str, h: np.ndarray, c: float, clip: bool, phase
     return np.where((clear >= 2) & np.isfinite(gain), gain, np.inf)
 
 
-def energy_gain_per_collision(integrator: str, omega_dt: float, zeta: float = 0.0, damping: str = "linear",
-                              phases: int = ENERGY_PHASES) -> tuple[float, float]:
+def energy_gain_per_collision(
+    integrator: str, omega_dt: float, zeta: float = 0.0, damping: str = "linear", phases: int = ENERGY_PHASES
+) -> tuple[float, float]:
     """(mean, standard deviation) over where the contact starts within the step of e_num^2 - 1:
     the relative change of the normal kinetic energy over one collision of a linear spring-dashpot
     contact, integrated by ``integrator`` at ``omega_dt`` (0 for the exact elastic contact; about
@@ -458,11 +458,18 @@ def energy_gain_envelope(integrator: str, omega_dt: float, zeta: float = 0.0, da
     contact lasts a whole number of steps)."""
     _, gains = _energy_scan(integrator, _positive("omega_dt", omega_dt), _non_negative("zeta", zeta), damping)
     return float(np.max(gains))
-ENERGY_SCAN = (0.05, 1.02, 64)  # omega0 dt scanned from this value (a mean gain ~1e-7), by this factor, over these phases
 
 
-def energy_omega_dt(integrator: str, zeta: float = 0.0, damping: str = "linear",
-                    budget: float = ENERGY_BUDGET) -> float:
+ENERGY_SCAN = (
+    0.05,
+    1.02,
+    64,
+)  # omega0 dt scanned from this value (a mean gain ~1e-7), by this factor, over these phases
+
+
+def energy_omega_dt(
+    integrator: str, zeta: float = 0.0, damping: str = "linear", budget: float = ENERGY_BUDGET
+) -> float:
     """Largest omega0 dt, up to the stability guard's, below which no collision gains more than
     ``budget`` of its energy on average (``energy_gain_per_collision``, taken at every omega0 dt of
     a fine scan from below: the mean dips where a contact lasts a whole number of steps, and a scene
@@ -488,8 +495,9 @@ def energy_omega_dt(integrator: str, zeta: float = 0.0, damping: str = "linear",
     return limit
 
 
-def energy_dt(integrator: str, ks: float, kd: float, m_eff: float, damping: str = "linear",
-              budget: float = ENERGY_BUDGET) -> float:
+def energy_dt(
+    integrator: str, ks: float, kd: float, m_eff: float, damping: str = "linear", budget: float = ENERGY_BUDGET
+) -> float:
     """Largest dt at which a collision of this contact gains at most ``budget`` of its energy on
     average (``energy_omega_dt``)."""
     return energy_omega_dt(integrator, damping_ratio(ks, kd, m_eff), damping, budget) / natural_frequency(ks, m_eff)

@@ -26,8 +26,20 @@ from .neighbour_list import LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN
 from .runner import PATHS, Runner
 from .shapes import Shape, pack_terrain
 
-__all__ = ["World", "EnergyDriftWarning", "StartOverlapWarning", "GRID_MIN_BALLS", "LANES_MAX_BALLS", "LANES_MIN_WORLDS", "LARGE_WORLD_MIN_BALLS",
-           "NEIGHBOUR_SKIN", "STABILITY_SAFETY", "DAMPING_MODES", "BROADPHASES", "STEPPING"]
+__all__ = [
+    "World",
+    "EnergyDriftWarning",
+    "StartOverlapWarning",
+    "GRID_MIN_BALLS",
+    "LANES_MAX_BALLS",
+    "LANES_MIN_WORLDS",
+    "LARGE_WORLD_MIN_BALLS",
+    "NEIGHBOUR_SKIN",
+    "STABILITY_SAFETY",
+    "DAMPING_MODES",
+    "BROADPHASES",
+    "STEPPING",
+]
 
 # The guard allows dt <= theory.guard_dt of the stiffest contact: STABILITY_SAFETY x its critical dt,
 # and no more than a dense pile's fastest mode allows (a ball in 12 contacts vibrates at twice the
@@ -212,10 +224,24 @@ class World:
         self._status = np.zeros(B, dtype=np.int64)
         self._ext = np.zeros((B, n, d))
         self._scalar = np.zeros(B)
-        self._deepest = (np.zeros(B), np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.int64))
+        self._deepest = (
+            np.zeros(B),
+            np.zeros(B, dtype=np.int64),
+            np.zeros(B, dtype=np.int64),
+            np.zeros(B, dtype=np.int64),
+        )
         self._grid = new_grid(B, n) if self.use_grid else None  # None: all pairs, compiled without the grid
-        self._runner = Runner(self.stepping, self.integrator, self.events, self._model, self._state,
-                              allocate_work(self.integrator, B, n, d), self._grid, self._status, self.dt)
+        self._runner = Runner(
+            self.stepping,
+            self.integrator,
+            self.events,
+            self._model,
+            self._state,
+            allocate_work(self.integrator, B, n, d),
+            self._grid,
+            self._status,
+            self.dt,
+        )
 
         self.dt_max = self.stability_limit()
         if self.dt > self.dt_max and not self.allow_unstable:
@@ -238,16 +264,21 @@ class World:
                 return "lanes"
             return "scalar"
         if self.events and stepping != "scalar":
-            raise ValueError(f"stepping={stepping!r} cannot locate events; with events=True use stepping='scalar' "
-                             f"or 'auto'")
+            raise ValueError(
+                f"stepping={stepping!r} cannot locate events; with events=True use stepping='scalar' or 'auto'"
+            )
         if stepping == "lanes" and (self.use_grid or not euler):
-            raise ValueError(f"stepping='lanes' needs broadphase='all_pairs' (got {self.broadphase!r}, "
-                             f"{'grid' if self.use_grid else 'all pairs'}) and symplectic or explicit Euler "
-                             f"(got {self.integrator!r})")
+            raise ValueError(
+                f"stepping='lanes' needs broadphase='all_pairs' (got {self.broadphase!r}, "
+                f"{'grid' if self.use_grid else 'all pairs'}) and symplectic or explicit Euler "
+                f"(got {self.integrator!r})"
+            )
         if stepping == "neighbour_list" and (not self.use_grid or not euler):
-            raise ValueError(f"stepping='neighbour_list' needs the grid (broadphase='grid', or 'auto' from "
-                             f"{GRID_MIN_BALLS} balls; got {self.broadphase!r} with {n} balls) and symplectic or "
-                             f"explicit Euler (got {self.integrator!r})")
+            raise ValueError(
+                f"stepping='neighbour_list' needs the grid (broadphase='grid', or 'auto' from "
+                f"{GRID_MIN_BALLS} balls; got {self.broadphase!r} with {n} balls) and symplectic or "
+                f"explicit Euler (got {self.integrator!r})"
+            )
         return stepping
 
     # ---------------------------------------------------------------- stability
@@ -282,12 +313,15 @@ class World:
         """Largest dt at which no contact the scene can form gains more than ``theory.ENERGY_BUDGET``
         of its energy per collision on average (``theory.energy_dt``; docs/physics.md section 6). A
         larger dt is accepted with an :class:`EnergyDriftWarning`."""
-        limits = [theory.energy_dt(self.integrator, ks, kd, me, self.damping) for _, ks, kd, me in self._stiffest_contacts()]
+        limits = [
+            theory.energy_dt(self.integrator, ks, kd, me, self.damping) for _, ks, kd, me in self._stiffest_contacts()
+        ]
         return min(limits) if limits else math.inf
 
     def _energy_message(self) -> str:
-        label, ks, kd, me = min(self._stiffest_contacts(),
-                                key=lambda c: theory.energy_dt(self.integrator, c[1], c[2], c[3], self.damping))
+        label, ks, kd, me = min(
+            self._stiffest_contacts(), key=lambda c: theory.energy_dt(self.integrator, c[1], c[2], c[3], self.damping)
+        )
         omega = theory.natural_frequency(ks, me)
         zeta = theory.damping_ratio(ks, kd, me)
         gain = theory.energy_gain_envelope(self.integrator, omega * self.dt, zeta, self.damping)
@@ -443,7 +477,9 @@ class World:
             if not self._batched and worlds is None:
                 arr = arr[None] if arr.ndim == 2 else arr
             if arr.shape != target:
-                raise ValueError(f"{name} must have shape {target if self._batched or worlds is not None else target[1:]}, got {np.shape(value)}")
+                raise ValueError(
+                    f"{name} must have shape {target if self._batched or worlds is not None else target[1:]}, got {np.shape(value)}"
+                )
             dest[idx] = arr
         if positions is not None:
             self._check_start(chosen.astype(np.int64))
@@ -468,7 +504,11 @@ class World:
         where = "" if not self._batched else f" of world {b}"
         if kind[t] == 0:
             r = min(self.radii[i], self.radii[j])
-            ks, m_eff, what = self.ks, theory.effective_mass(self.masses[i], self.masses[j]), f"balls {i} and {j}{where}"
+            ks, m_eff, what = (
+                self.ks,
+                theory.effective_mass(self.masses[i], self.masses[j]),
+                f"balls {i} and {j}{where}",
+            )
         else:
             r = self.radii[i]
             ks, m_eff, what = self.ks_terrain, float(self.masses[i]), f"ball {i}{where} and terrain shape {j}"
@@ -479,7 +519,8 @@ class World:
             f"so): the spring stores 1/2 ks overlap^2 = {0.5 * ks * overlap**2:.4g} and releases it as a speed of "
             f"{speed:.4g}, enough to drive any contact as stiff through a ball, and the scene's energy will not stay "
             f"what this state says. Separate the balls (allow_unstable=True silences this warning).",
-            StartOverlapWarning, stacklevel=3,
+            StartOverlapWarning,
+            stacklevel=3,
         )
 
     def invalidate_cache(self, worlds: Any = None) -> None:

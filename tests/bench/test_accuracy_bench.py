@@ -64,7 +64,9 @@ def test_costs_are_measured():
 
 
 def test_the_chart_and_csv_cover_the_sweep():
-    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "accuracy.csv.gz")
+    path = os.path.join(
+        os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "docs", "accuracy.csv.gz"
+    )
     if not os.path.exists(path):
         pytest.skip("docs/accuracy.csv.gz not generated")
     rows = A.read_csv(path)
@@ -87,8 +89,18 @@ def test_quick_benchmark_runs_and_writes_its_outputs(tmp_path):
 # --- the stability map's measurement ------------------------------------------------------------
 
 
-@pytest.mark.parametrize("integ, zeta", [("symplectic_euler", 0.0), ("symplectic_euler", 0.3), ("velocity_verlet", 0.0),
-                                         ("velocity_verlet", 0.3), ("rk4", 0.0), ("rk4", 0.3), ("explicit_euler", 0.3)])
+@pytest.mark.parametrize(
+    "integ, zeta",
+    [
+        ("symplectic_euler", 0.0),
+        ("symplectic_euler", 0.3),
+        ("velocity_verlet", 0.0),
+        ("velocity_verlet", 0.3),
+        ("rk4", 0.0),
+        ("rk4", 0.3),
+        ("explicit_euler", 0.3),
+    ],
+)
 def test_stability_map_measures_the_theoretical_boundary(integ, zeta):
     crit = theory.critical_omega_dt(integ, zeta)
     assert S.floor_oscillator_growth(integ, 0.97 * crit, zeta) <= S.GROWING

@@ -27,8 +27,9 @@ def test_lammps_collisions_return_the_closed_form_restitution():
     v = np.array([[u / 2, 0.0, 0.0], [-u / 2, 0.0, 0.0], [0.0, u, 0.0]])
     dt = theory.contact_time(ks, kd, m / 2) / 200
     steps = int((0.02 / u + 3.0 * theory.contact_time(ks, kd, m)) / dt)
-    run = run_lammps(LAMMPS, x, v, [r] * 3, [m] * 3, (0.0, 0.0, 0.0), R, ks, kd, (0.0, 0.0, 0.0), dt, steps, 0.1,
-                     final_state=True)
+    run = run_lammps(
+        LAMMPS, x, v, [r] * 3, [m] * 3, (0.0, 0.0, 0.0), R, ks, kd, (0.0, 0.0, 0.0), dt, steps, 0.1, final_state=True
+    )
     assert (run.v[1, 0] - run.v[0, 0]) / u == pytest.approx(theory.restitution(ks, kd, m / 2), rel=0.01)
     assert -run.v[2, 1] / u == pytest.approx(theory.restitution(ks, kd, m), rel=0.01)
 
@@ -45,8 +46,22 @@ def test_lammps_slumps_the_benchmark_pile_as_the_world_does():
     x0, v0 = w.positions.copy(), w.velocities.copy()
     steps = int(round(1.0 / w.dt))
     w.step(steps)
-    run = run_lammps(LAMMPS, x0, v0, w.radii, w.masses, bowl.center, bowl.radius, w.ks, w.kd, w.gravity, w.dt,
-                     steps, NEIGHBOUR_SKIN * 2.0 * float(w.radii.max()), final_state=True)
+    run = run_lammps(
+        LAMMPS,
+        x0,
+        v0,
+        w.radii,
+        w.masses,
+        bowl.center,
+        bowl.radius,
+        w.ks,
+        w.kd,
+        w.gravity,
+        w.dt,
+        steps,
+        NEIGHBOUR_SKIN * 2.0 * float(w.radii.max()),
+        final_state=True,
+    )
     assert run.x.shape == x0.shape and run.steps == steps and run.best > 0.0
     fall_world = x0[:, 2].mean() - w.positions[:, 2].mean()
     fall_lammps = x0[:, 2].mean() - run.x[:, 2].mean()

@@ -20,8 +20,9 @@ from penalty_env.physics import Bowl, Sphere, World
 from penalty_env.physics.configure import configure
 
 X = np.array([[0.0, 0.0, 0.5], [0.5, 0.0, 0.5]])
-WORLD = dict(positions=X, radii=[0.1, 0.1], masses=[1.0, 1.0], terrain=Bowl((0.0, 0.0, 8.0), 8.0), ks=1e3, kd=1.0,
-             dt=1e-3)
+WORLD = dict(
+    positions=X, radii=[0.1, 0.1], masses=[1.0, 1.0], terrain=Bowl((0.0, 0.0, 8.0), 8.0), ks=1e3, kd=1.0, dt=1e-3
+)
 
 
 def _world(**change):
@@ -115,8 +116,15 @@ def _env_kwarg_cases():
         else:
             bad = [hi * 2 + 1, "0.5", True] + ([lo / 2] if lo > 0 else [lo - 1])
         for value in bad:
-            out.append((f"{name}={value!r}", (lambda n=name, v=value: gym.make("PenaltyBalls-v0", **{n: v})), name, value,
-                        f"[{lo}, {hi}]"))
+            out.append(
+                (
+                    f"{name}={value!r}",
+                    (lambda n=name, v=value: gym.make("PenaltyBalls-v0", **{n: v})),
+                    name,
+                    value,
+                    f"[{lo}, {hi}]",
+                )
+            )
     return out
 
 
@@ -124,10 +132,20 @@ ENV_CASES = _env_kwarg_cases() + [
     ("render_mode unknown", lambda: gym.make("PenaltyBalls-v0", render_mode="rgb"), "render_mode", "rgb", "rgb_array"),
     ("num_envs zero", lambda: PenaltyBallsVectorEnv(num_envs=0), "num_envs", "0", "[1, inf]"),
     ("num_envs float", lambda: PenaltyBallsVectorEnv(num_envs=2.5), "num_envs", "2.5", "int"),
-    ("max_episode_steps zero", lambda: PenaltyBallsVectorEnv(num_envs=2, max_episode_steps=0), "max_episode_steps", "0",
-     ">= 1"),
-    ("autoreset_mode unknown", lambda: PenaltyBallsVectorEnv(num_envs=2, autoreset_mode="sometimes"), "autoreset_mode",
-     "sometimes", "NextStep"),
+    (
+        "max_episode_steps zero",
+        lambda: PenaltyBallsVectorEnv(num_envs=2, max_episode_steps=0),
+        "max_episode_steps",
+        "0",
+        ">= 1",
+    ),
+    (
+        "autoreset_mode unknown",
+        lambda: PenaltyBallsVectorEnv(num_envs=2, autoreset_mode="sometimes"),
+        "autoreset_mode",
+        "sometimes",
+        "NextStep",
+    ),
 ]
 
 ALL_CASES = WORLD_CASES + SHAPE_CASES + CONFIGURE_CASES + ENV_CASES
@@ -160,32 +178,87 @@ LIVE_CASES = [
     ("World.step n float", lambda: _world(), lambda w: w.step(1.5), "n", "1.5", "int"),
     ("World.step n huge", lambda: _world(), lambda w: w.step(2**63), "n", str(2**63), "int"),
     ("World.step forces string", lambda: _world(), lambda w: w.step(1, forces="x"), "forces", "x", "real numbers"),
-    ("World.step forces shape", lambda: _world(), lambda w: w.step(1, forces=np.zeros((3, 3))), "forces", "(3, 3)",
-     "(2, 3)"),
-    ("World.step forces NaN", lambda: _world(), lambda w: w.step(1, forces=np.full((2, 3), np.nan)), "forces", None,
-     "finite"),
-    ("World.set_state shape", lambda: _world(), lambda w: w.set_state(positions=np.zeros((3, 3))), "positions",
-     "(3, 3)", "(2, 3)"),
-    ("World.set_state worlds float", lambda: _world(positions=np.stack([X, X])),
-     lambda w: w.set_state(positions=X[None], worlds=[0.5]), "worlds", "float", "integer"),
-    ("World.set_state worlds range", lambda: _world(positions=np.stack([X, X])),
-     lambda w: w.set_state(positions=X[None], worlds=[5]), "worlds", "5", "0..1"),
+    (
+        "World.step forces shape",
+        lambda: _world(),
+        lambda w: w.step(1, forces=np.zeros((3, 3))),
+        "forces",
+        "(3, 3)",
+        "(2, 3)",
+    ),
+    (
+        "World.step forces NaN",
+        lambda: _world(),
+        lambda w: w.step(1, forces=np.full((2, 3), np.nan)),
+        "forces",
+        None,
+        "finite",
+    ),
+    (
+        "World.set_state shape",
+        lambda: _world(),
+        lambda w: w.set_state(positions=np.zeros((3, 3))),
+        "positions",
+        "(3, 3)",
+        "(2, 3)",
+    ),
+    (
+        "World.set_state worlds float",
+        lambda: _world(positions=np.stack([X, X])),
+        lambda w: w.set_state(positions=X[None], worlds=[0.5]),
+        "worlds",
+        "float",
+        "integer",
+    ),
+    (
+        "World.set_state worlds range",
+        lambda: _world(positions=np.stack([X, X])),
+        lambda w: w.set_state(positions=X[None], worlds=[5]),
+        "worlds",
+        "5",
+        "0..1",
+    ),
     ("reset options int", lambda: _env(), lambda e: e.reset(options=5), "options", "5", "dict"),
-    ("reset options mixed keys", lambda: _env(), lambda e: e.reset(options={"a": 1, 2: 3}), "options", "'a'", "accepts"),
-    ("reset options unknown", lambda: _env(), lambda e: e.reset(options={"difficulty": 1}), "options", "difficulty",
-     "accepts"),
+    (
+        "reset options mixed keys",
+        lambda: _env(),
+        lambda e: e.reset(options={"a": 1, 2: 3}),
+        "options",
+        "'a'",
+        "accepts",
+    ),
+    (
+        "reset options unknown",
+        lambda: _env(),
+        lambda e: e.reset(options={"difficulty": 1}),
+        "options",
+        "difficulty",
+        "accepts",
+    ),
     ("reset seed float", lambda: _env(), lambda e: e.reset(seed=1.5), "seed", "1.5", "int"),
     ("reset seed negative", lambda: _env(), lambda e: e.reset(seed=-1), "seed", "-1", "[0, inf]"),
     ("reset seed string", lambda: _env(), lambda e: e.reset(seed="x"), "seed", "x", "int"),
     ("step action string", lambda: _env(), lambda e: e.step("x"), "action", "x", "shape (2,)"),
     ("step action shape", lambda: _env(), lambda e: e.step(np.zeros(3)), "action", "(3,)", "shape (2,)"),
     ("step action NaN", lambda: _env(), lambda e: e.step(np.array([np.nan, 0.0])), "action", "nan", "NaN or inf"),
-    ("vector reset options string", lambda: _venv(), lambda e: e.reset(options="garbage"), "options", "garbage",
-     "dict"),
+    (
+        "vector reset options string",
+        lambda: _venv(),
+        lambda e: e.reset(options="garbage"),
+        "options",
+        "garbage",
+        "dict",
+    ),
     ("vector reset seed list", lambda: _venv(), lambda e: e.reset(seed=[1, 2]), "seed", "2", "list of 3"),
     ("vector reset seed float", lambda: _venv(), lambda e: e.reset(seed=0.5), "seed", "0.5", "int"),
-    ("vector reset_mask", lambda: _venv(), lambda e: e.reset(options={"reset_mask": [True]}), "reset_mask", "[True]",
-     "bool array"),
+    (
+        "vector reset_mask",
+        lambda: _venv(),
+        lambda e: e.reset(options={"reset_mask": [True]}),
+        "reset_mask",
+        "[True]",
+        "bool array",
+    ),
     ("vector step shape", lambda: _venv(), lambda e: e.step(np.zeros((2, 2))), "action", "(2, 2)", "(3, 2)"),
 ]
 
@@ -214,8 +287,9 @@ def _still_works(obj):
         assert np.all(np.isfinite(obs))
 
 
-@pytest.mark.parametrize("factory, call, name, value, allowed", [c[1:] for c in LIVE_CASES],
-                         ids=[c[0] for c in LIVE_CASES])
+@pytest.mark.parametrize(
+    "factory, call, name, value, allowed", [c[1:] for c in LIVE_CASES], ids=[c[0] for c in LIVE_CASES]
+)
 def test_call_refusals_name_the_argument_and_leave_the_object_usable(factory, call, name, value, allowed):
     obj = factory()
     with pytest.raises((ValueError, TypeError)) as exc_info:

@@ -260,8 +260,9 @@ def test_a_head_on_impact_at_top_speed_overlaps_by_the_penetration_tolerance():
         # says the peak overlap is v / omega0, which configure sets to tol x r less the margin it
         # keeps for the integrator's predicted overshoot of the peak (the motor's residual push
         # and the terrain add a little)
-        env = PenaltyBallsEnv(penetration_tolerance=tol, friction=0.0, max_force=0.5, restitution=1.0,
-                              control_period=0.005)
+        env = PenaltyBallsEnv(
+            penetration_tolerance=tol, friction=0.0, max_force=0.5, restitution=1.0, control_period=0.005
+        )
         env.reset(seed=0)
         worst = _head_on(env.scene, env.scene.params["max_speed"])
         margin = env.scene.config.predicted_error["peak_overlap"]
@@ -338,8 +339,15 @@ def test_observations_stay_inside_their_bounds_even_when_pushed_hard():
 
 def test_docstring_documents_the_task_in_tables():
     doc = PenaltyBallsEnv.__doc__
-    for section in ("## Action Space", "## Observation Space", "## Rewards", "## Starting State",
-                    "## Episode End", "## Arguments", "## Version History"):
+    for section in (
+        "## Action Space",
+        "## Observation Space",
+        "## Rewards",
+        "## Starting State",
+        "## Episode End",
+        "## Arguments",
+        "## Version History",
+    ):
         assert section in doc
     for name, (default, lo, hi, _) in PARAMETERS.items():  # the Arguments table is the checked ranges
         assert f"| `{name}` | {default} | [{lo}, {hi}] |" in doc, name

@@ -27,8 +27,20 @@ def test_pusher_ball_impact_meets_the_restitution_accuracy_and_penetration(accur
     zeta = CF.zeta_for_restitution(p["restitution"], "no_tension")
     m_eff = theory.effective_mass(m[0], m[1])
     assert scene.kd == pytest.approx(2.0 * zeta * (scene.ks * m_eff) ** 0.5, rel=1e-9)
-    res = pair_collision("symplectic_euler", False, "no_tension", None, None, 256, masses=m, radii=r,
-                         ks=scene.ks, speed=p["max_speed"], kd=scene.kd, dt=scene.dt)
+    res = pair_collision(
+        "symplectic_euler",
+        False,
+        "no_tension",
+        None,
+        None,
+        256,
+        masses=m,
+        radii=r,
+        ks=scene.ks,
+        speed=p["max_speed"],
+        kd=scene.kd,
+        dt=scene.dt,
+    )
     assert res.errors["restitution"] <= accuracy
     assert res.extra["peak_ratio"] <= p["penetration_tolerance"] * (1.0 + 1e-9)
 
@@ -56,8 +68,11 @@ def test_restitution_accuracy_is_range_checked():
         dict(restitution=PARAMETERS["restitution"][2]),
         dict(n_obstacles=3, obstacle_mass=PARAMETERS["obstacle_mass"][2], restitution=PARAMETERS["restitution"][1]),
         dict(n_obstacles=3, obstacle_mass=PARAMETERS["obstacle_mass"][1], restitution=PARAMETERS["restitution"][1]),
-        dict(pusher_mass=PARAMETERS["pusher_mass"][2], ball_mass=PARAMETERS["ball_mass"][1],
-             restitution_accuracy=PARAMETERS["restitution_accuracy"][1]),
+        dict(
+            pusher_mass=PARAMETERS["pusher_mass"][2],
+            ball_mass=PARAMETERS["ball_mass"][1],
+            restitution_accuracy=PARAMETERS["restitution_accuracy"][1],
+        ),
     ],
 )
 def test_every_documented_parameter_range_builds_a_scene_that_steps(kwargs):

@@ -8,8 +8,15 @@ import pytest
 
 import penalty_env  # noqa: F401
 
-INFO_DTYPES = {"reward_goal": np.float64, "reward_reach": np.float64, "reward_success": np.float64,
-               "distance": np.float64, "pusher_distance": np.float64, "max_overlap": np.float64, "is_success": bool}
+INFO_DTYPES = {
+    "reward_goal": np.float64,
+    "reward_reach": np.float64,
+    "reward_success": np.float64,
+    "distance": np.float64,
+    "pusher_distance": np.float64,
+    "max_overlap": np.float64,
+    "is_success": bool,
+}
 
 
 def test_single_env_info_values_are_numpy_scalars_of_their_declared_dtype():

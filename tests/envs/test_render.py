@@ -45,7 +45,7 @@ def test_3d_frame_puts_the_ball_where_it_is():
     frame = env.render()
     renderer = env.unwrapped._renderer
     row, col = pixel(scene, renderer, scene.world.positions[0, 1])
-    patch = frame[row - 2:row + 3, col - 2:col + 3].reshape(-1, 3).astype(int)
+    patch = frame[row - 2 : row + 3, col - 2 : col + 3].reshape(-1, 3).astype(int)
     # the ball's centre is lit orange: red well above blue (the sand and the pusher are not)
     assert np.all(patch[:, 0] > patch[:, 2] + 60)
 
@@ -77,8 +77,7 @@ def test_human_mode_opens_a_window_headless(env_id):
 
 def test_record_video_writes_a_file(tmp_path):
     pytest.importorskip("moviepy")
-    env = gym.make("PenaltyBalls-v0", render_mode="rgb_array", max_episode_steps=10, render_width=64,
-                   render_height=64)
+    env = gym.make("PenaltyBalls-v0", render_mode="rgb_array", max_episode_steps=10, render_width=64, render_height=64)
     env = gym.wrappers.RecordVideo(env, str(tmp_path / "videos"), episode_trigger=lambda ep: True, disable_logger=True)
     env.reset(seed=0)
     done = False

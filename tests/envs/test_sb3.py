@@ -104,8 +104,9 @@ def test_vec_monitor_episode_statistics_match_monitor():
 
 
 def test_vecenv_interface():
-    venv = make_vec_env("PenaltyBalls-v0", n_envs=3, monitor=False, render_mode="rgb_array", render_width=32,
-                        render_height=32)
+    venv = make_vec_env(
+        "PenaltyBalls-v0", n_envs=3, monitor=False, render_mode="rgb_array", render_width=32, render_height=32
+    )
     assert isinstance(venv, VecEnv)
     assert venv.get_attr("render_mode") == ["rgb_array"] * 3
     assert venv.get_attr("max_episode_steps", indices=[0]) == [150]

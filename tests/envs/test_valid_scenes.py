@@ -104,8 +104,12 @@ def test_the_default_scene_keeps_the_pusher_ball_spring_for_the_terrain(env_id):
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(kwargs=kwargs_in_the_box(), dim=st.sampled_from([2, 3]), seed=st.integers(0, 2**31 - 1),
-       actions=st.lists(st.tuples(st.floats(-3, 3), st.floats(-3, 3)), min_size=5, max_size=40))
+@given(
+    kwargs=kwargs_in_the_box(),
+    dim=st.sampled_from([2, 3]),
+    seed=st.integers(0, 2**31 - 1),
+    actions=st.lists(st.tuples(st.floats(-3, 3), st.floats(-3, 3)), min_size=5, max_size=40),
+)
 def test_random_scenes_and_actions_stay_finite_bounded_and_in_the_bowl(kwargs, dim, seed, actions):
     if dim == 2:
         kwargs["n_obstacles"] = min(kwargs["n_obstacles"], 2)

@@ -27,9 +27,7 @@ def mixed_actions(obs, policy, rng, k):
 
 
 def sync_twin(env_id, n, mode, **kwargs):
-    return SyncVectorEnv(
-        [lambda: gym.make(env_id, **kwargs) for _ in range(n)], autoreset_mode=mode
-    )
+    return SyncVectorEnv([lambda: gym.make(env_id, **kwargs) for _ in range(n)], autoreset_mode=mode)
 
 
 def assert_same(a, b, what):

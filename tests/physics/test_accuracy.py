@@ -62,7 +62,9 @@ def _ratios(values):
 @pytest.mark.parametrize("geometry,d", GEOMETRIES)
 @pytest.mark.parametrize("zeta", [0.1, 0.3])
 @pytest.mark.parametrize("integrator", ACCURATE_INTEGRATORS)
-def test_damped_collision_restitution_error_halves_when_steps_per_contact_double(collisions, integrator, zeta, geometry, d):
+def test_damped_collision_restitution_error_halves_when_steps_per_contact_double(
+    collisions, integrator, zeta, geometry, d
+):
     sweeps = [collisions(geometry, integrator, zeta, n, d) for n in RESOLUTIONS]
     for name in sweeps[0].probe_names:
         e_err = [s.worst_e_error(name) for s in sweeps]
@@ -81,7 +83,9 @@ def test_damped_collision_restitution_error_halves_when_steps_per_contact_double
 
 @pytest.mark.parametrize("geometry,d", GEOMETRIES)
 @pytest.mark.parametrize("integrator", ACCURATE_INTEGRATORS)
-def test_undamped_collision_error_falls_at_least_fourfold_when_steps_per_contact_double(collisions, integrator, geometry, d):
+def test_undamped_collision_error_falls_at_least_fourfold_when_steps_per_contact_double(
+    collisions, integrator, geometry, d
+):
     sweeps = [collisions(geometry, integrator, 0.0, n, d) for n in RESOLUTIONS]
     for name in sweeps[0].probe_names:
         r_e = _ratios([s.worst_e_error(name) for s in sweeps])
@@ -112,7 +116,9 @@ def _accurate_cases(zetas):
 
 @pytest.mark.parametrize("geometry,d", GEOMETRIES)
 @pytest.mark.parametrize("integrator,zeta", _accurate_cases([0.0, 0.1, 0.3]))
-def test_collision_at_128_steps_per_contact_matches_closed_form_restitution_and_duration(collisions, integrator, zeta, geometry, d):
+def test_collision_at_128_steps_per_contact_matches_closed_form_restitution_and_duration(
+    collisions, integrator, zeta, geometry, d
+):
     sweep = collisions(geometry, integrator, zeta, 128, d)
     for name in sweep.probe_names:
         e_err = sweep.worst_e_error(name)
@@ -223,8 +229,18 @@ def test_no_tension_damping_never_pulls_a_separating_pair_back():
     v = np.array([0.5 * n, -0.5 * n])
     speeds = {}
     for mode in ("linear", "no_tension"):
-        w = World(x, [0.3, 0.3], [m, m], v, gravity=(0, 0, 0), ks=ks, kd=kd, damping=mode,
-                  integrator="symplectic_euler", dt=theory.contact_time(ks, kd, m / 2) / 64)
+        w = World(
+            x,
+            [0.3, 0.3],
+            [m, m],
+            v,
+            gravity=(0, 0, 0),
+            ks=ks,
+            kd=kd,
+            damping=mode,
+            integrator="symplectic_euler",
+            dt=theory.contact_time(ks, kd, m / 2) / 64,
+        )
         s = []
         for _ in range(120):
             w.step(1)
@@ -283,13 +299,23 @@ def test_stack_of_three_balls_compresses_each_contact_by_the_weight_above_it():
     x = np.zeros((3, 3))
     x[:, 2] = z
     dt = 0.2 / math.sqrt(max(ks_t, 2 * ks) / m_min)  # omega dt <= 0.2 for the stiffest contact
-    w = World(x, radii, masses, terrain=Bowl((0, 0, R), R), ks=ks, kd=kd, ks_terrain=ks_t, kd_terrain=kd_t,
-              integrator="symplectic_euler", dt=dt)
+    w = World(
+        x,
+        radii,
+        masses,
+        terrain=Bowl((0, 0, R), R),
+        ks=ks,
+        kd=kd,
+        ks_terrain=ks_t,
+        kd_terrain=kd_t,
+        integrator="symplectic_euler",
+        dt=dt,
+    )
     w.step(int(4.0 / w.dt))
     p = w.positions
     floor = R - np.linalg.norm(p[0] - np.array([0, 0, R]))  # = phi of ball 0's centre
     assert radii[0] - floor == pytest.approx(masses.sum() * g / ks_t, rel=0.01)
-    for (i, j) in ((0, 1), (1, 2)):
+    for i, j in ((0, 1), (1, 2)):
         overlap = radii[i] + radii[j] - np.linalg.norm(p[j] - p[i])
         assert overlap == pytest.approx(masses[j:].sum() * g / ks, rel=0.01), (i, j)
     np.testing.assert_array_equal(p[:, :2], 0.0)  # the stack stays on the vertical through the centre

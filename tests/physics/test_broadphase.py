@@ -21,8 +21,10 @@ def test_grid_and_all_pairs_broad_phases_give_the_same_trajectories(d, n, contac
     x, v = x[0], v[0]
     masses = np.random.default_rng(3).uniform(0.5, 1.5, n)
     kw = contact_kwargs(masses)
-    worlds = {bp: World(x, radii, masses, v, terrain=bowl, mu=0.3, broadphase=bp, **kw)
-              for bp in ("all_pairs", "grid", "auto")}
+    worlds = {
+        bp: World(x, radii, masses, v, terrain=bowl, mu=0.3, broadphase=bp, **kw)
+        for bp in ("all_pairs", "grid", "auto")
+    }
     assert n >= GRID_MIN_BALLS  # so "auto" chooses the grid
     in_contact = 0
     for _ in range(5):

@@ -52,8 +52,9 @@ def test_zeta_for_restitution_inverts_the_exact_solution(damping, e):
 
 
 def test_ks_comes_from_the_penetration_tolerance_and_kd_from_the_restitution():
-    cfg = CF.configure([1.0, 3.0, 2.0], [0.1, 0.15, 0.12], max_impact_speed=2.0, penetration=0.05,
-                       restitution=0.5, accuracy=0.01)
+    cfg = CF.configure(
+        [1.0, 3.0, 2.0], [0.1, 0.15, 0.12], max_impact_speed=2.0, penetration=0.05, restitution=0.5, accuracy=0.01
+    )
     m_heavy_pair = 3.0 * 2.0 / 5.0
     assert cfg.ks == pytest.approx(m_heavy_pair * 2.0**2 / (0.05 * 0.1) ** 2)
     assert cfg.ks_terrain == pytest.approx(3.0 * 2.0**2 / (0.05 * 0.1) ** 2)
@@ -75,8 +76,20 @@ def test_ks_holds_the_penetration_tolerance_under_gravity_and_numerical_overshoo
     cfg = CF.configure([1.0, 1.0], [R, R], V, penetration=PEN, restitution=1.0, accuracy=0.05, gravity=9.81)
     ks0 = 0.5 * V**2 / (PEN * R) ** 2
     assert cfg.ks > ks0
-    pair = pair_collision(cfg.integrator, cfg.events, "linear", None, None, 256, masses=(1.0, 1.0), radii=(R, R),
-                          ks=cfg.ks, speed=V, kd=cfg.kd, dt=cfg.dt)
+    pair = pair_collision(
+        cfg.integrator,
+        cfg.events,
+        "linear",
+        None,
+        None,
+        256,
+        masses=(1.0, 1.0),
+        radii=(R, R),
+        ks=cfg.ks,
+        speed=V,
+        kd=cfg.kd,
+        dt=cfg.dt,
+    )
     assert pair.extra["peak_ratio"] <= PEN
 
 
@@ -92,10 +105,12 @@ R, V, PEN = 0.1, 1.0, 0.05
 
 def _measure(integrator, events, damping, ks, kd, ks_t, kd_t, dt, phases=PHASES):
     """Worst restitution error and peak overlap / r of scenarios 1 and 2, and the resting error."""
-    pair = pair_collision(integrator, events, damping, None, None, phases, masses=(1.0, 1.0), radii=(R, R), ks=ks,
-                          speed=V, kd=kd, dt=dt)
-    drop = bowl_drop(integrator, events, damping, None, None, phases, mass=1.0, radius=R, ks=ks_t, speed=V,
-                     kd=kd_t, dt=dt)
+    pair = pair_collision(
+        integrator, events, damping, None, None, phases, masses=(1.0, 1.0), radii=(R, R), ks=ks, speed=V, kd=kd, dt=dt
+    )
+    drop = bowl_drop(
+        integrator, events, damping, None, None, phases, mass=1.0, radius=R, ks=ks_t, speed=V, kd=kd_t, dt=dt
+    )
     rest = resting(integrator, events, damping, None, None, 4, mass=1.0, radius=R, ks=ks_t, kd=kd_t, dt=dt)
     if pair.diverged or drop.diverged or rest.diverged:
         return math.inf, math.inf, math.inf
@@ -109,12 +124,27 @@ def _meets(e_err, peak, rest_err, accuracy):
 
 
 def _check(restitution, accuracy, damping):
-    cfg = CF.configure([1.0, 1.0], [R, R], V, penetration=PEN, restitution=restitution, accuracy=accuracy,
-                       damping=damping, gravity=9.81)
-    e_err, peak, rest_err = _measure(cfg.integrator, cfg.events, damping, cfg.ks, cfg.kd, cfg.ks_terrain,
-                                     cfg.kd_terrain, cfg.dt)
-    assert _meets(e_err, peak, rest_err, accuracy), (cfg.integrator, cfg.events, cfg.steps_per_contact, e_err, peak,
-                                                     rest_err)
+    cfg = CF.configure(
+        [1.0, 1.0],
+        [R, R],
+        V,
+        penetration=PEN,
+        restitution=restitution,
+        accuracy=accuracy,
+        damping=damping,
+        gravity=9.81,
+    )
+    e_err, peak, rest_err = _measure(
+        cfg.integrator, cfg.events, damping, cfg.ks, cfg.kd, cfg.ks_terrain, cfg.kd_terrain, cfg.dt
+    )
+    assert _meets(e_err, peak, rest_err, accuracy), (
+        cfg.integrator,
+        cfg.events,
+        cfg.steps_per_contact,
+        e_err,
+        peak,
+        rest_err,
+    )
     # the sweep: the cheapest configuration that meets the same tolerances (errors fall as the
     # steps per contact grow, so each method stops at its first success)
     cheapest = math.inf
@@ -125,8 +155,10 @@ def _check(restitution, accuracy, damping):
         for ev in (False, True):
             for spc in SPCS:
                 dt = cfg.contact_time / spc
-                guard = min(theory.guard_dt(integ, k, c, m)
-                            for k, c, m in ((cfg.ks, cfg.kd, 0.5), (cfg.ks_terrain, cfg.kd_terrain, 1.0)))
+                guard = min(
+                    theory.guard_dt(integ, k, c, m)
+                    for k, c, m in ((cfg.ks, cfg.kd, 0.5), (cfg.ks_terrain, cfg.kd_terrain, 1.0))
+                )
                 cost = CF.config_cost(integ, ev, spc)
                 if dt > guard or cost >= cheapest:
                     continue
@@ -134,8 +166,14 @@ def _check(restitution, accuracy, damping):
                     cheapest, found = cost, (integ, ev, spc)
                     break
     assert found is not None
-    assert cfg.cost_per_contact <= 1.5 * cheapest, (cfg.integrator, cfg.events, cfg.steps_per_contact,
-                                                    cfg.cost_per_contact, found, cheapest)
+    assert cfg.cost_per_contact <= 1.5 * cheapest, (
+        cfg.integrator,
+        cfg.events,
+        cfg.steps_per_contact,
+        cfg.cost_per_contact,
+        found,
+        cheapest,
+    )
     return cfg, found
 
 
@@ -149,13 +187,16 @@ def test_configuration_for_a_tight_tolerance_picks_event_located_rk4():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("restitution, accuracy, damping", [
-    (0.9, 1e-3, "linear"),
-    (0.5, 1e-3, "linear"),
-    (0.5, 3e-2, "linear"),
-    (0.5, 1e-2, "no_tension"),
-    (0.3, 1e-3, "no_tension"),
-])
+@pytest.mark.parametrize(
+    "restitution, accuracy, damping",
+    [
+        (0.9, 1e-3, "linear"),
+        (0.5, 1e-3, "linear"),
+        (0.5, 3e-2, "linear"),
+        (0.5, 1e-2, "no_tension"),
+        (0.3, 1e-3, "no_tension"),
+    ],
+)
 def test_configuration_meets_tolerances_at_near_least_cost(restitution, accuracy, damping):
     _check(restitution, accuracy, damping)
 

@@ -42,8 +42,9 @@ def test_pair_contacts_conserve_total_momentum_to_round_off(integrator, variant)
     m_eff_min = masses.min() / 2
     kd = 2 * 0.25 * math.sqrt(ks * m_eff_min)  # zeta >= 0.25 on every pair
     omega_max = math.sqrt(ks / m_eff_min)
-    w = World(x, radii, masses, v, gravity=np.zeros(d), ks=ks, kd=kd, integrator=integrator,
-              dt=0.05 / omega_max, **variant)
+    w = World(
+        x, radii, masses, v, gravity=np.zeros(d), ks=ks, kd=kd, integrator=integrator, dt=0.05 / omega_max, **variant
+    )
     p0 = w.momentum().copy()
     scale = float(np.sum(masses * np.linalg.norm(v, axis=1)))  # sum of |m v|: the round-off scale
     e0 = w.energy()
@@ -93,8 +94,18 @@ def _elastic_bowl_energy(integrator, d=3, seed=0):
     x, v, _, _, bowl = balls_in_bowl(N_BALLS, d, seed=seed, radius=r, min_height=0.25, speed=0.8)
     x, v = x[0], v[0]
     dt = 0.1 / math.sqrt(ks / (m / 2))
-    w = World(x, np.full(N_BALLS, r), np.full(N_BALLS, m), v, terrain=bowl, ks=ks, kd=0.0,
-              integrator=integrator, dt=dt, allow_unstable=integrator == "explicit_euler")
+    w = World(
+        x,
+        np.full(N_BALLS, r),
+        np.full(N_BALLS, m),
+        v,
+        terrain=bowl,
+        ks=ks,
+        kd=0.0,
+        integrator=integrator,
+        dt=dt,
+        allow_unstable=integrator == "explicit_euler",
+    )
     energies = [w.energy()]
     try:
         for _ in range(STEPS // SAMPLE_EVERY):
@@ -117,7 +128,9 @@ def test_elastic_balls_in_a_bowl_show_no_energy_drift_with_symplectic_integrator
     tenth = E.size // 10
     first, last = E[:tenth].mean(), E[-tenth:].mean()
     drift = (last - first) / (first - floor)
-    assert abs(drift) < 0.005, f"energy drift {100 * drift:.3f}% over {STEPS} steps (first {first:.4f}, last {last:.4f})"
+    assert abs(drift) < 0.005, (
+        f"energy drift {100 * drift:.3f}% over {STEPS} steps (first {first:.4f}, last {last:.4f})"
+    )
     # and the scene is not trivially quiet: the balls keep exchanging potential and kinetic energy
     assert first - floor > 0.2 * first
 
@@ -138,10 +151,15 @@ from hypothesis import strategies as st  # noqa: E402
 
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(d=st.sampled_from([2, 3]), n=st.integers(2, 10), seed=st.integers(0, 2**31 - 1),
-       zeta=st.floats(0.05, 0.9), mu=st.sampled_from([0.0, 0.4]),
-       integrator=st.sampled_from(["symplectic_euler", "velocity_verlet", "rk4", "implicit_euler"]),
-       damping=st.sampled_from(["linear", "no_tension"]))
+@given(
+    d=st.sampled_from([2, 3]),
+    n=st.integers(2, 10),
+    seed=st.integers(0, 2**31 - 1),
+    zeta=st.floats(0.05, 0.9),
+    mu=st.sampled_from([0.0, 0.4]),
+    integrator=st.sampled_from(["symplectic_euler", "velocity_verlet", "rk4", "implicit_euler"]),
+    damping=st.sampled_from(["linear", "no_tension"]),
+)
 def test_a_random_damped_scene_never_gains_energy_between_contacts(d, n, seed, zeta, mu, integrator, damping):
     """Stepped one step at a time, a step that starts and ends with no contact (every ball in free
     flight) changes the energy only by the integrator's treatment of gravity, which never adds any

@@ -36,18 +36,37 @@ def _wall_collisions(integrator, omega_dt, zeta, damping="linear"):
     x[:, 0, 2] = r + v0 * dt * phase  # the gap closes during the first step
     v = np.zeros_like(x)
     v[:, 0, 2] = -v0
-    w = World(x, [r], [m], v, terrain=Bowl((0.0, 0.0, 50.0), 50.0), gravity=(0.0, 0.0, 0.0), ks=ks, kd=kd,
-              damping=damping, integrator=integrator, dt=dt, allow_unstable=True)
+    w = World(
+        x,
+        [r],
+        [m],
+        v,
+        terrain=Bowl((0.0, 0.0, 50.0), 50.0),
+        gravity=(0.0, 0.0, 0.0),
+        ks=ks,
+        kd=kd,
+        damping=damping,
+        integrator=integrator,
+        dt=dt,
+        allow_unstable=True,
+    )
     w.step(int(2.0 * math.pi / omega_dt) + 10)
     vz = w.velocities[:, 0, 2]
     assert np.all(w.positions[:, 0, 2] > r) and np.all(vz > 0), "every ball has left the floor"
     return (vz / v0) ** 2 - 1.0
 
 
-@pytest.mark.parametrize("integrator, omega_dt, zeta", [
-    ("symplectic_euler", 0.3, 0.0), ("symplectic_euler", 0.7, 0.0), ("velocity_verlet", 0.55, 0.0),
-    ("rk4", 0.9, 0.0), ("symplectic_euler", 0.4, 0.05), ("implicit_euler", 2.0, 0.0),
-])
+@pytest.mark.parametrize(
+    "integrator, omega_dt, zeta",
+    [
+        ("symplectic_euler", 0.3, 0.0),
+        ("symplectic_euler", 0.7, 0.0),
+        ("velocity_verlet", 0.55, 0.0),
+        ("rk4", 0.9, 0.0),
+        ("symplectic_euler", 0.4, 0.05),
+        ("implicit_euler", 2.0, 0.0),
+    ],
+)
 def test_the_energy_model_is_the_worlds_own_collision(integrator, omega_dt, zeta):
     """The model is the implementation: the World's mean gain over the same phases agrees with it."""
     world = _wall_collisions(integrator, omega_dt, zeta)
@@ -73,8 +92,10 @@ def test_the_energy_limit_sits_where_the_mean_gain_reaches_the_budget():
     assert 0.1 < h < 0.2
     for below in np.linspace(0.05, h, 40):  # no dip is relied on below the limit
         assert theory.energy_gain_per_collision("symplectic_euler", below)[0] <= theory.ENERGY_BUDGET * 1.2
-    assert max(theory.energy_gain_per_collision("symplectic_euler", h * f)[0] for f in (1.0, 1.03, 1.06, 1.1)) > \
-        theory.ENERGY_BUDGET
+    assert (
+        max(theory.energy_gain_per_collision("symplectic_euler", h * f)[0] for f in (1.0, 1.03, 1.06, 1.1))
+        > theory.ENERGY_BUDGET
+    )
     # damping outweighs the heating: then the stability guard is the only limit
     assert theory.energy_omega_dt("symplectic_euler", 0.05) == theory.guard_omega_dt("symplectic_euler", 0.05)
     assert theory.energy_omega_dt("implicit_euler", 0.0) == math.inf
@@ -122,8 +143,13 @@ def test_a_dense_elastic_gas_at_the_largest_step_accepted_keeps_its_energy_withi
     for _ in range(20_000 // every):
         w.step(every)
         p = w.positions
-        now = np.concatenate([np.linalg.norm(p[:, iu] - p[:, ju], axis=-1) < 2 * r,  # pairs
-                              np.linalg.norm(p, axis=-1) > 1.0 - r], axis=1)  # the cage's wall
+        now = np.concatenate(
+            [
+                np.linalg.norm(p[:, iu] - p[:, ju], axis=-1) < 2 * r,  # pairs
+                np.linalg.norm(p, axis=-1) > 1.0 - r,
+            ],
+            axis=1,
+        )  # the cage's wall
         collisions += np.sum(now & ~touching, axis=1)
         touching = now
     drift = w.energy() / e0 - 1.0
@@ -135,10 +161,19 @@ def test_a_dense_elastic_gas_at_the_largest_step_accepted_keeps_its_energy_withi
 
 
 def test_configure_keeps_a_nearly_elastic_contact_within_the_budget():
-    cfg = configure([1.0, 1.0], [0.1, 0.1], 1.0, penetration=0.05, restitution=1.0, accuracy=0.1,
-                    integrators=("symplectic_euler",))
+    cfg = configure(
+        [1.0, 1.0], [0.1, 0.1], 1.0, penetration=0.05, restitution=1.0, accuracy=0.1, integrators=("symplectic_euler",)
+    )
     omega_dt = math.sqrt(cfg.ks / 0.5) * cfg.dt
     assert omega_dt <= theory.energy_omega_dt("symplectic_euler", 0.0) * (1 + 1e-9)
-    loose = configure([1.0, 1.0], [0.1, 0.1], 1.0, penetration=0.05, restitution=1.0, accuracy=0.1,
-                      integrators=("symplectic_euler",), energy_budget=None)
+    loose = configure(
+        [1.0, 1.0],
+        [0.1, 0.1],
+        1.0,
+        penetration=0.05,
+        restitution=1.0,
+        accuracy=0.1,
+        integrators=("symplectic_euler",),
+        energy_budget=None,
+    )
     assert loose.dt > cfg.dt  # the budget is what set the step

@@ -50,8 +50,9 @@ def test_verlet_with_events_is_second_order_on_terrain_including_a_touch_at_a_st
     assert 1.8 < _slope(spcs, errs) < 2.3, errs
 
 
-@pytest.mark.parametrize("integrator", ["explicit_euler", "symplectic_euler", "velocity_verlet", "rk4",
-                                        "implicit_euler"])
+@pytest.mark.parametrize(
+    "integrator", ["explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler"]
+)
 def test_without_events_every_method_is_first_order_in_the_worst_case(integrator):
     spcs = [32, 64, 128]
     errs = [pair_collision(integrator, False, "linear", 0.3, s, PHASES).errors["restitution"] for s in spcs]
@@ -113,8 +114,14 @@ def test_grid_and_all_pairs_locate_the_same_switches(integrator):
     x, v = _scatter(n, d, 1, radius=0.06)
     radii, masses = np.full(n, 0.06), np.linspace(0.5, 1.5, n)
     ks = 2e4
-    kw = dict(gravity=np.zeros(d), ks=ks, kd=2 * 0.3 * math.sqrt(ks * 0.25), integrator=integrator, events=True,
-              dt=0.1 / math.sqrt(ks / 0.25))
+    kw = dict(
+        gravity=np.zeros(d),
+        ks=ks,
+        kd=2 * 0.3 * math.sqrt(ks * 0.25),
+        integrator=integrator,
+        events=True,
+        dt=0.1 / math.sqrt(ks / 0.25),
+    )
     a = World(x, radii, masses, v, broadphase="all_pairs", **kw)
     b = World(x, radii, masses, v, broadphase="grid", **kw)
     a.step(1500)
@@ -129,8 +136,18 @@ def test_events_conserve_momentum_of_pair_contacts():
     n, d = 12, 3
     x, v = _scatter(n, d, 2)
     masses = np.linspace(0.5, 2.0, n)
-    w = World(x, np.full(n, 0.1), masses, v, gravity=np.zeros(d), ks=1e4, kd=15.0, integrator="velocity_verlet",
-              events=True, dt=2e-4)
+    w = World(
+        x,
+        np.full(n, 0.1),
+        masses,
+        v,
+        gravity=np.zeros(d),
+        ks=1e4,
+        kd=15.0,
+        integrator="velocity_verlet",
+        events=True,
+        dt=2e-4,
+    )
     p0 = w.momentum().copy()
     w.step(4000)  # past the moment they all converge on the origin
     assert events.stats(w)["events"] > 10

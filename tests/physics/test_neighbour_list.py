@@ -49,8 +49,14 @@ def test_large_world_storage_order_changes_only_round_off():
     v = rng.normal(0, 0.2, x.shape)
     radii = rng.uniform(0.095, 0.1, n)
     masses = rng.uniform(0.8, 1.2, n)
-    kw = dict(ks=1e4, kd=2 * 0.2 * math.sqrt(1e4 * 0.4), dt=0.2 / math.sqrt(1e4 / 0.4), terrain=Bowl((0, 0, 3.0), 3.0),
-              broadphase="grid", mu=0.2)
+    kw = dict(
+        ks=1e4,
+        kd=2 * 0.2 * math.sqrt(1e4 * 0.4),
+        dt=0.2 / math.sqrt(1e4 / 0.4),
+        terrain=Bowl((0, 0, 3.0), 3.0),
+        broadphase="grid",
+        mu=0.2,
+    )
     steps = 53
     forces = rng.normal(0.0, 1.0, x.shape)
     ref = World(x, radii, masses, v, **kw)
@@ -98,8 +104,10 @@ def test_neighbour_list_world_matches_all_pairs_while_balls_escape_and_lists_reb
     v = rng.normal(0.0, 0.05, x.shape)
     v[0] = 0.0
     v[0, 0] = 3.0  # a fast ball through the pile
-    worlds = {bp: World(x, radii, masses, v, terrain=bowl, mu=mu, damping=damping, broadphase=bp, **kw)
-              for bp in ("all_pairs", "grid")}
+    worlds = {
+        bp: World(x, radii, masses, v, terrain=bowl, mu=mu, damping=damping, broadphase=bp, **kw)
+        for bp in ("all_pairs", "grid")
+    }
     g, a = worlds["grid"], worlds["all_pairs"]
     assert g.stepping == "neighbour_list"
     escaped, contacts = 0, 0
@@ -131,8 +139,10 @@ def test_a_ball_listed_far_from_the_terrain_still_bounces_off_it_after_escaping(
     v[shot, 0] = 2.0
     terrain = (bowl, Sphere((0.55, x[shot, 1], x[shot, 2]), 0.1))  # head on
     kw = contact_kwargs(masses, zeta=0.3)
-    worlds = {bp: World(x, radii, masses, v, terrain=terrain, gravity=(0.0, 0.0, 0.0), broadphase=bp, **kw)
-              for bp in ("all_pairs", "grid")}
+    worlds = {
+        bp: World(x, radii, masses, v, terrain=terrain, gravity=(0.0, 0.0, 0.0), broadphase=bp, **kw)
+        for bp in ("all_pairs", "grid")
+    }
     g, a = worlds["grid"], worlds["all_pairs"]
     g.step(1)
     a.step(1)
@@ -198,8 +208,9 @@ def test_a_huge_finite_displacement_still_advances_every_other_ball(contact_kwar
     v = np.zeros_like(x)
     v[5, 0] = 1e160
     kw = contact_kwargs(masses, zeta=0.3)
-    worlds = {bp: World(x, radii, masses, v, gravity=(0.0, 0.0, -9.81), broadphase=bp, **kw)
-              for bp in ("all_pairs", "grid")}
+    worlds = {
+        bp: World(x, radii, masses, v, gravity=(0.0, 0.0, -9.81), broadphase=bp, **kw) for bp in ("all_pairs", "grid")
+    }
     for w in worlds.values():
         w.step(2)
     keep = np.arange(n) != 5

@@ -74,8 +74,18 @@ def _slider(mu, d=3, v0=1.0):
     kd = 2 * 0.5 * math.sqrt(KS * MASS)
     center = np.zeros(d)
     center[-1] = R_BIG
-    w = World(x, [RADIUS], [MASS], (v0 * direction)[None], terrain=Bowl(tuple(center), R_BIG), ks=KS, kd=kd,
-              mu=mu, integrator="symplectic_euler", dt=0.1 / math.sqrt(KS / MASS))
+    w = World(
+        x,
+        [RADIUS],
+        [MASS],
+        (v0 * direction)[None],
+        terrain=Bowl(tuple(center), R_BIG),
+        ks=KS,
+        kd=kd,
+        mu=mu,
+        integrator="symplectic_euler",
+        dt=0.1 / math.sqrt(KS / MASS),
+    )
     return w, direction
 
 
@@ -144,8 +154,18 @@ def test_pair_friction_stops_relative_sliding_at_mu_f_over_m_eff_and_conserves_m
     t_hat = np.array([-0.8, 0.6])
     x = np.array([[0.0, 0.0], (r.sum() - F / ks) * n])  # at the pressed equilibrium overlap
     v = np.array([-(m[1] / m.sum()) * u * t_hat, (m[0] / m.sum()) * u * t_hat])
-    w = World(x, r, m, v, gravity=(0.0, 0.0), ks=ks, kd=kd, mu=mu, integrator="symplectic_euler",
-              dt=0.05 / math.sqrt(ks / m_eff))
+    w = World(
+        x,
+        r,
+        m,
+        v,
+        gravity=(0.0, 0.0),
+        ks=ks,
+        kd=kd,
+        mu=mu,
+        integrator="symplectic_euler",
+        dt=0.05 / math.sqrt(ks / m_eff),
+    )
     a = mu * F / m_eff
     t_stop = u / a
     n_steps = int(1.5 * t_stop / w.dt)

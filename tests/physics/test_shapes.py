@@ -78,18 +78,41 @@ def _cases(d):
     small = Sphere(tuple(0.8 * e), 0.5)
     # (the deepest point is the small sphere's point nearest the big centre: the same geometry
     # as two spheres, so the same drop formula)
-    out.append(("sphere wholly inside sphere", big, small, True, 2.0 + 0.5 - 0.8, small, -e,
-                lambda th: _sphere_sphere_drop(0.5, 0.8, th)))
+    out.append(
+        (
+            "sphere wholly inside sphere",
+            big,
+            small,
+            True,
+            2.0 + 0.5 - 0.8,
+            small,
+            -e,
+            lambda th: _sphere_sphere_drop(0.5, 0.8, th),
+        )
+    )
     # a ball pressing 0.1 into the wall of a bowl (R = 3): depth d + r - R
     bowl = Bowl(tuple(np.zeros(d)), 3.0)
     ball = Sphere(tuple(2.6 * e), 0.5)
     out.append(("sphere/bowl wall", ball, bowl, True, 0.1, ball, e, lambda th: _sphere_bowl_drop(0.5, 2.6, th)))
     # a ball floating in the bowl, 0.4 clear of the wall
     ball2 = Sphere(tuple(2.1 * e), 0.5)
-    out.append(("sphere inside bowl, clear", ball2, bowl, False, -0.4, ball2, e, lambda th: _sphere_bowl_drop(0.5, 2.1, th)))
+    out.append(
+        ("sphere inside bowl, clear", ball2, bowl, False, -0.4, ball2, e, lambda th: _sphere_bowl_drop(0.5, 2.1, th))
+    )
     # a ball wholly inside the bowl's solid (beyond its sphere): depth d + r - R
     ball3 = Sphere(tuple(4.0 * e), 0.5)
-    out.append(("sphere wholly inside bowl solid", ball3, bowl, True, 1.5, ball3, e, lambda th: _sphere_bowl_drop(0.5, 4.0, th)))
+    out.append(
+        (
+            "sphere wholly inside bowl solid",
+            ball3,
+            bowl,
+            True,
+            1.5,
+            ball3,
+            e,
+            lambda th: _sphere_bowl_drop(0.5, 4.0, th),
+        )
+    )
     return out
 
 

@@ -101,8 +101,14 @@ def test_explicit_euler_gains_energy_at_any_dt_when_undamped(oscillator):
 
 @pytest.mark.parametrize(
     "integrator,zeta",
-    [("explicit_euler", 0.3), ("explicit_euler", 0.6), ("symplectic_euler", 0.3), ("symplectic_euler", 1.0),
-     ("velocity_verlet", 0.6), ("rk4", 0.3)],
+    [
+        ("explicit_euler", 0.3),
+        ("explicit_euler", 0.6),
+        ("symplectic_euler", 0.3),
+        ("symplectic_euler", 1.0),
+        ("velocity_verlet", 0.6),
+        ("rk4", 0.3),
+    ],
 )
 def test_damped_contact_is_stable_just_below_and_unstable_just_above_the_limit(oscillator, integrator, zeta):
     """Explicit Euler: omega dt <= 2 zeta; symplectic Euler: omega dt < 2 (sqrt(1 + zeta^2) - zeta).
@@ -118,7 +124,7 @@ def test_damped_contact_is_stable_just_below_and_unstable_just_above_the_limit(o
     below, below_div = _run(oscillator(integrator, 0.95 * closed, zeta=zeta))
     above, above_div = _run(oscillator(integrator, 1.05 * closed, zeta=zeta))
     assert not below_div
-    assert np.max(below[-N_STEPS // 10:]) < 1e-6, "below the limit the damped oscillation must die out"
+    assert np.max(below[-N_STEPS // 10 :]) < 1e-6, "below the limit the damped oscillation must die out"
     assert np.max(below) < 10.0
     assert above_div or np.max(above) >= 10.0, f"max E/E0 above the limit: {np.max(above):.4g}"
 
@@ -149,8 +155,16 @@ def _caged_ball(dt_factor, zeta=0.215, steps=600):
     x = np.vstack([np.zeros(3), d * dirs / math.sqrt(2)])
     x[0] = 1e-5 * np.array([0.8, 0.5, 0.33]) / np.linalg.norm([0.8, 0.5, 0.33])
     limit = theory.guard_dt("symplectic_euler", ks, kd, m_eff)
-    w = World(x, np.full(13, r), np.r_[1.0, np.full(12, 1e8)], gravity=(0.0, 0.0, 0.0), ks=ks, kd=kd,
-              dt=dt_factor(limit, theory.critical_dt("symplectic_euler", ks, kd, m_eff)), allow_unstable=True)
+    w = World(
+        x,
+        np.full(13, r),
+        np.r_[1.0, np.full(12, 1e8)],
+        gravity=(0.0, 0.0, 0.0),
+        ks=ks,
+        kd=kd,
+        dt=dt_factor(limit, theory.critical_dt("symplectic_euler", ks, kd, m_eff)),
+        allow_unstable=True,
+    )
     amp = []
     with np.errstate(over="ignore", invalid="ignore"):
         for k in range(steps):
@@ -168,5 +182,7 @@ def test_the_guard_keeps_a_dense_pile_mode_stable_where_half_the_critical_dt_did
     the guard's dt, grows at 1.05x, and grows at the old limit of half the critical dt."""
     assert _caged_ball(lambda guard, crit: 0.95 * guard) < 0.5
     assert _caged_ball(lambda guard, crit: 1.05 * guard) > 10.0
-    assert theory.guard_dt("symplectic_euler", 1e4, 43.0, 1.0) < 0.45 * theory.critical_dt("symplectic_euler", 1e4, 43.0, 1.0)
+    assert theory.guard_dt("symplectic_euler", 1e4, 43.0, 1.0) < 0.45 * theory.critical_dt(
+        "symplectic_euler", 1e4, 43.0, 1.0
+    )
     assert _caged_ball(lambda guard, crit: 0.5 * crit) > 10.0

@@ -27,29 +27,56 @@ ALL_INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4
 
 # (stepping, integrator, broadphase, events, balls per world, mu, forces)
 PATH_CASES = (
-    [pytest.param("scalar", integ, "all_pairs", False, 12, 0.0, False, id=f"scalar-{integ}-all_pairs")
-     for integ in ALL_INTEGRATORS]
-    + [pytest.param("scalar", integ, "grid", False, 12, 0.3, True, id=f"scalar-{integ}-grid+friction+forces")
-       for integ in ALL_INTEGRATORS]
-    + [pytest.param("lanes", integ, "all_pairs", False, 12, 0.3, True, id=f"lanes-{integ}")
-       for integ in ("symplectic_euler", "explicit_euler")]
-    + [pytest.param("neighbour_list", "symplectic_euler", "grid", False, LARGE_WORLD_MIN_BALLS + 8, 0.3, True,
-                    id="neighbour_list")]
-    + [pytest.param("scalar", integ, "all_pairs", True, 8, 0.0, False, id=f"events-{integ}")
-       for integ in ("velocity_verlet", "rk4")]
+    [
+        pytest.param("scalar", integ, "all_pairs", False, 12, 0.0, False, id=f"scalar-{integ}-all_pairs")
+        for integ in ALL_INTEGRATORS
+    ]
+    + [
+        pytest.param("scalar", integ, "grid", False, 12, 0.3, True, id=f"scalar-{integ}-grid+friction+forces")
+        for integ in ALL_INTEGRATORS
+    ]
+    + [
+        pytest.param("lanes", integ, "all_pairs", False, 12, 0.3, True, id=f"lanes-{integ}")
+        for integ in ("symplectic_euler", "explicit_euler")
+    ]
+    + [
+        pytest.param(
+            "neighbour_list",
+            "symplectic_euler",
+            "grid",
+            False,
+            LARGE_WORLD_MIN_BALLS + 8,
+            0.3,
+            True,
+            id="neighbour_list",
+        )
+    ]
+    + [
+        pytest.param("scalar", integ, "all_pairs", True, 8, 0.0, False, id=f"events-{integ}")
+        for integ in ("velocity_verlet", "rk4")
+    ]
 )
 
 
 @pytest.mark.parametrize("stepping, integrator, broadphase, events, n, mu, forces", PATH_CASES)
-def test_batched_worlds_are_bit_identical_to_each_world_alone(contact_kwargs, stepping, integrator, broadphase,
-                                                              events, n, mu, forces):
+def test_batched_worlds_are_bit_identical_to_each_world_alone(
+    contact_kwargs, stepping, integrator, broadphase, events, n, mu, forces
+):
     d = 3
     B = LANES_MIN_WORLDS + 3 if stepping == "lanes" else 4
-    x, v, radii, _, bowl = balls_in_bowl(n, d, worlds=B, seed=10, radius=0.06 if n > 100 else 0.12,
-                                         speed=3.0 if events else 0.8, spacing=0.003)
+    x, v, radii, _, bowl = balls_in_bowl(
+        n, d, worlds=B, seed=10, radius=0.06 if n > 100 else 0.12, speed=3.0 if events else 0.8, spacing=0.003
+    )
     masses = np.random.default_rng(10).uniform(0.5, 1.5, n)
-    kw = dict(terrain=bowl, integrator=integrator, broadphase=broadphase, stepping=stepping, events=events, mu=mu,
-              **contact_kwargs(masses, zeta=0.3, omega_dt=0.1))  # explicit Euler needs omega dt <= 2 zeta
+    kw = dict(
+        terrain=bowl,
+        integrator=integrator,
+        broadphase=broadphase,
+        stepping=stepping,
+        events=events,
+        mu=mu,
+        **contact_kwargs(masses, zeta=0.3, omega_dt=0.1),
+    )  # explicit Euler needs omega dt <= 2 zeta
     ext = np.random.default_rng(4).normal(0.0, 2.0, (B, n, d)) if forces else None
     batch = World(x, radii, masses, v, **kw)
     assert batch.stepping == stepping
@@ -72,26 +99,46 @@ def _lanes_scene(d, B, n, seed):
     """n balls dropped in a bowl with a sphere sitting in it, random velocities: many contacts; with
     two edge cases: coincident centres (the normal falls back to the last axis) in world 0, a world
     at rest (no tangential speed: friction's 0 / 0) in world 1."""
-    x, v, radii, masses, bowl = balls_in_bowl(n, d, worlds=B, seed=seed, radius=np.linspace(0.08, 0.11, n),
-                                             mass=np.linspace(0.5, 1.5, n), bowl_radius=1.0, min_height=0.1,
-                                             speed=1.0, spacing=0.0)
+    x, v, radii, masses, bowl = balls_in_bowl(
+        n,
+        d,
+        worlds=B,
+        seed=seed,
+        radius=np.linspace(0.08, 0.11, n),
+        mass=np.linspace(0.5, 1.5, n),
+        bowl_radius=1.0,
+        min_height=0.1,
+        speed=1.0,
+        spacing=0.0,
+    )
     x[0, 1] = x[0, 0]
     v[1] = 0.0
     c = np.array(bowl.center)
     return x, v, radii, masses, (bowl, Sphere(tuple(c - np.eye(d)[-1] * 0.9), 0.15))
 
 
-@pytest.mark.parametrize("d, integrator, damping, mu, forces", [
-    (3, "symplectic_euler", "linear", 0.0, False),
-    (3, "symplectic_euler", "no_tension", 0.4, True),
-    (2, "symplectic_euler", "linear", 0.3, True),
-    (2, "explicit_euler", "no_tension", 0.0, False),
-])
+@pytest.mark.parametrize(
+    "d, integrator, damping, mu, forces",
+    [
+        (3, "symplectic_euler", "linear", 0.0, False),
+        (3, "symplectic_euler", "no_tension", 0.4, True),
+        (2, "symplectic_euler", "linear", 0.3, True),
+        (2, "explicit_euler", "no_tension", 0.0, False),
+    ],
+)
 def test_lanes_match_the_scalar_path_bit_for_bit(d, integrator, damping, mu, forces):
     B, n = lanes.LANES + 5, 5  # a full block and a partial one
     x, v, radii, masses, terrain = _lanes_scene(d, B, n, seed=d)
-    kw = dict(terrain=terrain, gravity=(0.0,) * (d - 1) + (-9.81,), ks=2e3, kd=3.0, damping=damping,
-              mu=mu, integrator=integrator, broadphase="all_pairs")
+    kw = dict(
+        terrain=terrain,
+        gravity=(0.0,) * (d - 1) + (-9.81,),
+        ks=2e3,
+        kd=3.0,
+        damping=damping,
+        mu=mu,
+        integrator=integrator,
+        broadphase="all_pairs",
+    )
     probe = World(x, radii, masses, dt=1.0, allow_unstable=True, **kw)
     dt = 0.9 * probe.stability_limit() if integrator == "symplectic_euler" else 1e-4
     ext = np.random.default_rng(5).normal(0.0, 2.0, x.shape) if forces else None
@@ -141,8 +188,19 @@ def test_lanes_report_a_blow_up_in_the_same_worlds_as_the_scalar_path():
     vel[::3, 0, 0] = 1.0
     status = []
     for stepping in ("lanes", "scalar"):
-        w = World(pos, [0.1] * 3, [1.0] * 3, velocities=vel, terrain=(Bowl((0.0, 0.0, 1.0), 1.0),),
-                  gravity=(0.0, 0.0, 0.0), ks=1e4, kd=0.0, dt=0.05, allow_unstable=True, stepping=stepping)
+        w = World(
+            pos,
+            [0.1] * 3,
+            [1.0] * 3,
+            velocities=vel,
+            terrain=(Bowl((0.0, 0.0, 1.0), 1.0),),
+            gravity=(0.0, 0.0, 0.0),
+            ks=1e4,
+            kd=0.0,
+            dt=0.05,
+            allow_unstable=True,
+            stepping=stepping,
+        )
         with pytest.raises(FloatingPointError, match="NaN or inf"):
             for _ in range(100):
                 w.step(10)
@@ -206,7 +264,9 @@ def test_results_do_not_depend_on_the_thread_count():
     digests = {}
     for threads in (1, 2):
         env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
-        res = subprocess.run([sys.executable, "-c", _THREAD_SCRIPT], env=env, capture_output=True, text=True, timeout=600)
+        res = subprocess.run(
+            [sys.executable, "-c", _THREAD_SCRIPT], env=env, capture_output=True, text=True, timeout=600
+        )
         assert res.returncode == 0, res.stderr[-3000:]
         seen, *hashes = res.stdout.split()
         assert seen == str(threads)

@@ -16,7 +16,9 @@ def test_critical_omega_dt_matches_the_closed_forms(zeta):
     sqrt = math.sqrt
     if zeta <= 1.0:
         assert theory.critical_omega_dt("explicit_euler", zeta) == pytest.approx(2 * zeta, rel=1e-12, abs=0)
-    assert theory.critical_omega_dt("symplectic_euler", zeta) == pytest.approx(2 * (sqrt(1 + zeta**2) - zeta), rel=1e-12)
+    assert theory.critical_omega_dt("symplectic_euler", zeta) == pytest.approx(
+        2 * (sqrt(1 + zeta**2) - zeta), rel=1e-12
+    )
     assert theory.critical_omega_dt("implicit_euler", zeta) == math.inf
     if zeta == 0.0:
         assert theory.critical_omega_dt("velocity_verlet", 0.0) == pytest.approx(2.0, rel=1e-12)
@@ -75,7 +77,9 @@ def test_restitution_and_damping_for_restitution_round_trip(e):
         assert kd == 0.0
     zeta = kd / (2 * math.sqrt(ks * m))
     assert theory.damping_ratio(ks, kd, m) == pytest.approx(zeta, rel=1e-12)
-    assert theory.contact_time(ks, kd, m) == pytest.approx(math.pi / (math.sqrt(ks / m) * math.sqrt(1 - zeta**2)), rel=1e-12)
+    assert theory.contact_time(ks, kd, m) == pytest.approx(
+        math.pi / (math.sqrt(ks / m) * math.sqrt(1 - zeta**2)), rel=1e-12
+    )
 
 
 def test_closed_forms_of_the_contact():
@@ -99,7 +103,9 @@ def test_closed_forms_of_the_contact():
         theory.critical_omega_dt("leapfrog", 0.0)
 
 
-@pytest.mark.parametrize("integrator", ["explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler"])
+@pytest.mark.parametrize(
+    "integrator", ["explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler"]
+)
 @pytest.mark.parametrize("zeta", [0.0, 0.4])
 def test_amplification_matrix_is_the_worlds_one_step_map_on_a_contact(integrator, zeta):
     """The stability limits come from theory.amplification_matrix; it must be the map the World
@@ -114,8 +120,17 @@ def test_amplification_matrix_is_the_worlds_one_step_map_on_a_contact(integrator
     amp = 0.05 * rest
 
     def world():
-        return World(np.array([[0.0, 0.0, r - rest]]), [r], [m], terrain=Bowl((0, 0, R), R), ks=ks, kd=kd,
-                     integrator=integrator, dt=h / omega, allow_unstable=True)
+        return World(
+            np.array([[0.0, 0.0, r - rest]]),
+            [r],
+            [m],
+            terrain=Bowl((0, 0, R), R),
+            ks=ks,
+            kd=kd,
+            integrator=integrator,
+            dt=h / omega,
+            allow_unstable=True,
+        )
 
     def deviation(w):
         # x = deviation of the overlap from rest (overlap = r - z), v = d(overlap)/dt / omega
@@ -123,8 +138,9 @@ def test_amplification_matrix_is_the_worlds_one_step_map_on_a_contact(integrator
         return np.array([(r - z) - rest, -vz / omega]) / amp
 
     def set_dev(w, x, v):
-        w.set_state(positions=np.array([[0.0, 0.0, r - rest - x * amp]]),
-                    velocities=np.array([[0.0, 0.0, -v * omega * amp]]))
+        w.set_state(
+            positions=np.array([[0.0, 0.0, r - rest - x * amp]]), velocities=np.array([[0.0, 0.0, -v * omega * amp]])
+        )
 
     expected = theory.amplification_matrix(integrator, h, zeta)
     if integrator != "velocity_verlet":

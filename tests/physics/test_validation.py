@@ -14,8 +14,15 @@ NAN = float("nan")
 
 
 def _good(**over):
-    kw = dict(positions=np.array([[0.0, 0.0, 0.3], [0.5, 0.0, 0.3]]), radii=[0.2, 0.2], masses=[1.0, 2.0],
-              terrain=(Bowl((0, 0, 2.0), 2.0),), ks=1e4, kd=10.0, dt=1e-3)
+    kw = dict(
+        positions=np.array([[0.0, 0.0, 0.3], [0.5, 0.0, 0.3]]),
+        radii=[0.2, 0.2],
+        masses=[1.0, 2.0],
+        terrain=(Bowl((0, 0, 2.0), 2.0),),
+        ks=1e4,
+        kd=10.0,
+        dt=1e-3,
+    )
     kw.update(over)
     return kw
 
@@ -79,8 +86,12 @@ def test_bad_arguments_raise_value_error_naming_the_argument(name, over):
 
 def test_bad_step_and_state_arguments_raise_value_error_naming_the_argument():
     w = _make()
-    for bad in (np.zeros((3, 3)), np.zeros(3), np.array([[0.0, 0.0, NAN], [0.0, 0.0, 0.0]]),
-                np.array([[0.0, 0.0, math.inf], [0.0, 0.0, 0.0]])):
+    for bad in (
+        np.zeros((3, 3)),
+        np.zeros(3),
+        np.array([[0.0, 0.0, NAN], [0.0, 0.0, 0.0]]),
+        np.array([[0.0, 0.0, math.inf], [0.0, 0.0, 0.0]]),
+    ):
         with pytest.raises(ValueError, match="forces"):
             w.step(1, forces=bad)
     for bad_n in (-1, 1.5, True, "3"):
@@ -168,8 +179,15 @@ def test_implicit_euler_refuses_no_tension_damping_which_its_linearised_solve_ca
     """The frozen-contact Jacobian does not know the clip, so the solve would pull separating balls
     together: the combination is refused with a message naming both arguments."""
     with pytest.raises(ValueError, match="no_tension.*implicit_euler"):
-        World(np.array([[0.0, 0.0, 0.1]]), [0.1], [1.0], ks=1e3, dt=1e-3, integrator="implicit_euler",
-              damping="no_tension")
+        World(
+            np.array([[0.0, 0.0, 0.1]]),
+            [0.1],
+            [1.0],
+            ks=1e3,
+            dt=1e-3,
+            integrator="implicit_euler",
+            damping="no_tension",
+        )
 
 
 @pytest.mark.parametrize(

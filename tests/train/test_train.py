@@ -24,13 +24,48 @@ def _run(args, timeout):
 
 def test_training_smoke_run_saves_reloads_and_evaluates(tmp_path):
     out = tmp_path / "run"
-    _run([TRAIN, "--timesteps", 4096, "--n-envs", 8, "--n-steps", 256, "--batch-size", 512, "--eval-freq", 2048,
-          "--eval-episodes", 8, "--final-episodes", 16, "--no-progress", "--out", out], timeout=600)
-    for name in ("model.zip", "vecnormalize.pkl", "learning_curve.png", "policy.gif", "summary.json", "evaluations.csv"):
+    _run(
+        [
+            TRAIN,
+            "--timesteps",
+            4096,
+            "--n-envs",
+            8,
+            "--n-steps",
+            256,
+            "--batch-size",
+            512,
+            "--eval-freq",
+            2048,
+            "--eval-episodes",
+            8,
+            "--final-episodes",
+            16,
+            "--no-progress",
+            "--out",
+            out,
+        ],
+        timeout=600,
+    )
+    for name in (
+        "model.zip",
+        "vecnormalize.pkl",
+        "learning_curve.png",
+        "policy.gif",
+        "summary.json",
+        "evaluations.csv",
+    ):
         assert (out / name).stat().st_size > 0, name
     summary = json.loads((out / "summary.json").read_text())
-    for key in ("timesteps", "wall_time_s", "env_steps_per_s", "success_rate", "mean_return",
-                "random_success_rate", "random_mean_return"):
+    for key in (
+        "timesteps",
+        "wall_time_s",
+        "env_steps_per_s",
+        "success_rate",
+        "mean_return",
+        "random_success_rate",
+        "random_mean_return",
+    ):
         assert key in summary, key
     assert summary["timesteps"] >= 4096
     assert summary["eval_episodes"] == 16
