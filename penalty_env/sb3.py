@@ -24,9 +24,9 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvO
 
 from . import _validate as V
 from .envs import fused_step as KE
-from .envs.penalty_balls import MAX_EPISODE_STEPS, _coerce_action, _render_fps
+from .envs.penalty_balls import MAX_EPISODE_STEPS
 from .envs.render import Renderer
-from .envs.scene import PenaltyBallsScene
+from .envs.scene import PenaltyBallsScene, coerce_action, render_fps
 
 __all__ = ["PenaltyBallsVecEnv", "make_vec_env"]
 
@@ -71,7 +71,7 @@ class PenaltyBallsVecEnv(VecEnv):
         self.max_episode_steps = int(max_episode_steps)
         super().__init__(self.scene.n_worlds, self.scene.observation_space, self.scene.action_space)
         # SB3's VecVideoRecorder records at metadata["render_fps"] (30 when it is missing)
-        self.metadata: dict[str, Any] = {**self.metadata, "render_fps": _render_fps(self.scene.control_period)}
+        self.metadata: dict[str, Any] = {**self.metadata, "render_fps": render_fps(self.scene.control_period)}
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._steps = np.zeros(self.num_envs, dtype=np.int64)
         self._actions: np.ndarray | None = None
@@ -95,7 +95,7 @@ class PenaltyBallsVecEnv(VecEnv):
     def step_async(self, actions: np.ndarray) -> None:
         shape = (self.num_envs, self.scene.action_size)
         if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.kind != "f":
-            actions = _coerce_action(actions, shape)
+            actions = coerce_action(actions, shape)
         self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:

@@ -101,6 +101,51 @@ def balls_in_bowl(
     return x, v, radii, masses, Bowl(tuple(center), bowl_radius)
 
 
+def wall_collision_gains(
+    integrator: str, omega_dt: float, zeta: float = 0.0, phases: int = 512, damping: str = "linear"
+) -> np.ndarray:
+    """e_num^2 - 1 of a ball hitting the floor of a large Bowl head on (along its axis, gravity
+    off), one world per phase of the contact's start within the step: the World's own version of
+    the collision ``theory.energy_gain_per_collision`` models (the same phases)."""
+    r, m, ks, v0 = 0.1, 1.0, 1e4, 1.0
+    omega = math.sqrt(ks / m)
+    dt = omega_dt / omega
+    phase = (np.arange(phases) + 0.5) / phases
+    x = np.zeros((phases, 1, 3))
+    x[:, 0, 2] = r + v0 * dt * phase  # the gap closes during the first step
+    v = np.zeros_like(x)
+    v[:, 0, 2] = -v0
+    w = World(
+        x,
+        [r],
+        [m],
+        v,
+        terrain=Bowl((0.0, 0.0, 50.0), 50.0),
+        gravity=(0.0, 0.0, 0.0),
+        ks=ks,
+        kd=2.0 * zeta * math.sqrt(ks * m),
+        damping=damping,
+        integrator=integrator,
+        dt=dt,
+        allow_unstable=True,
+    )
+    w.step(int(2.0 * math.pi / omega_dt) + 10)
+    vz = w.velocities[:, 0, 2]
+    if not (np.all(w.positions[:, 0, 2] > r) and np.all(vz > 0)):
+        raise RuntimeError("a ball has not left the floor")
+    return (vz / v0) ** 2 - 1.0
+
+
+def elastic_gas(worlds: int = 192, n: int = 8, seed: int = 0):
+    """``worlds`` worlds of n balls of radius 0.1 inside a spherical cage of radius 1 about the
+    origin, velocities normal with 1 m/s per axis, no gravity: a dense elastic gas. Returns
+    ``(positions, velocities, radius, world_kwargs)`` (the cage, gravity off, ks = 1e4, kd = 0)."""
+    x, _, _, _, cage = balls_in_bowl(n, 3, worlds=worlds, seed=seed, radius=0.1, bowl_radius=1.0, spacing=0.01)
+    v = np.random.default_rng(seed).normal(0.0, 1.0, (worlds, n, 3))
+    kw = dict(terrain=Bowl((0.0, 0.0, 0.0), 1.0), gravity=(0.0, 0.0, 0.0), ks=1e4, kd=0.0)
+    return x - np.array(cage.center), v, 0.1, kw
+
+
 def packed_bowl(n: int, d: int = 3, radius: float = 0.5, seed: int = 0, spacing: float = 2.02):
     """n balls of one radius filling the bottom of a bowl, lowest first, on a jittered close-packed
     lattice (face-centred cubic in 3D, hexagonal in 2D). Frictionless balls cannot hold it against

@@ -21,49 +21,18 @@ import warnings
 
 import numpy as np
 
-from ..physics import Bowl, World, theory
+from ..physics import World, theory
 from ..physics.world import EnergyDriftWarning
-from ..scenarios import balls_in_bowl
+from ..scenarios import elastic_gas, wall_collision_gains
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
 PHASES = 512
 
 
-def wall_collision_gains(integrator: str, omega_dt: float, zeta: float = 0.0, phases: int = PHASES) -> np.ndarray:
-    """e_num^2 - 1 per phase of a ball hitting the floor of a large Bowl head on, gravity off."""
-    r, m, ks, v0 = 0.1, 1.0, 1e4, 1.0
-    omega = math.sqrt(ks / m)
-    dt = omega_dt / omega
-    phase = (np.arange(phases) + 0.5) / phases
-    x = np.zeros((phases, 1, 3))
-    x[:, 0, 2] = r + v0 * dt * phase
-    v = np.zeros_like(x)
-    v[:, 0, 2] = -v0
-    w = World(
-        x,
-        [r],
-        [m],
-        v,
-        terrain=Bowl((0.0, 0.0, 50.0), 50.0),
-        gravity=(0.0, 0.0, 0.0),
-        ks=ks,
-        kd=2.0 * zeta * math.sqrt(ks * m),
-        integrator=integrator,
-        dt=dt,
-        allow_unstable=True,
-    )
-    w.step(int(2.0 * math.pi / omega_dt) + 10)
-    return (w.velocities[:, 0, 2] / v0) ** 2 - 1.0
-
-
 def gas(frac_or_dt, B=192, n=8, steps=20_000, seed=0, energy_limit=False):
-    """Energy ratio after ``steps`` of each world of an elastic gas at ``frac`` x the stability
-    guard's dt (or at the energy limit)."""
-    r = 0.1
-    x, _, _, _, cage = balls_in_bowl(n, 3, worlds=B, seed=seed, radius=r, bowl_radius=1.0, spacing=0.01)
-    x = x - np.array(cage.center)  # inside the cage of radius 1 about the origin
-    v = np.random.default_rng(seed).normal(0.0, 1.0, (B, n, 3))
-    kw = dict(terrain=Bowl((0.0, 0.0, 0.0), 1.0), gravity=(0.0, 0.0, 0.0), ks=1e4, kd=0.0)
+    """Energy ratio after ``steps`` of each world of an elastic gas (``scenarios.elastic_gas``) at
+    ``frac`` x the stability guard's dt (or at the energy limit); returns (pair omega0 dt, ratios)."""
+    x, v, r, kw = elastic_gas(B, n, seed)
     probe = World(x, np.full(n, r), np.ones(n), v, dt=1.0, allow_unstable=True, **kw)
     dt = probe.energy_limit() if energy_limit else frac_or_dt * probe.stability_limit()
     with warnings.catch_warnings():
@@ -71,7 +40,7 @@ def gas(frac_or_dt, B=192, n=8, steps=20_000, seed=0, energy_limit=False):
         w = World(x, np.full(n, r), np.ones(n), v, dt=dt, **kw)
     e0 = w.energy()
     w.step(steps)
-    return dt * math.sqrt(1e4 / 0.5), w.energy() / e0
+    return dt * math.sqrt(kw["ks"] / 0.5), w.energy() / e0
 
 
 def main(argv=None) -> None:
@@ -103,7 +72,7 @@ def main(argv=None) -> None:
             f"  {integ}: energy limit omega0 dt = {limit:.4g} (stability guard {theory.guard_omega_dt(integ, 0.0):.4g})"
         )
         for h in grid:
-            gains = wall_collision_gains(integ, h)
+            gains = wall_collision_gains(integ, h, phases=PHASES)
             model = theory.energy_gain_per_collision(integ, h, phases=PHASES)[0]
             worst_mismatch = max(worst_mismatch, abs(gains.mean() - model))
             rows.append(

@@ -20,15 +20,11 @@ from gymnasium.vector.utils import batch_space
 from .. import _validate as V
 from . import fused_step as KE
 from .render import HumanWindow, Renderer
-from .scene import PARAMETERS, PenaltyBallsScene
+from .scene import PARAMETERS, PenaltyBallsScene, coerce_action, render_fps
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS"]
 
 MAX_EPISODE_STEPS = 150  # registered for both ids: 6 s of simulated time at the default 0.04 s
-
-
-def _render_fps(control_period: float) -> int:
-    return max(1, round(1.0 / control_period))
 
 
 def _parameters_table() -> str:
@@ -36,17 +32,6 @@ def _parameters_table() -> str:
     for name, (default, lo, hi, meaning) in PARAMETERS.items():
         rows.append(f"    | `{name}` | {default} | [{lo}, {hi}] | {meaning} |")
     return "\n".join(rows)
-
-
-def _coerce_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
-    """An action as a float array of ``shape``, or a ValueError that says what was wrong."""
-    try:
-        a = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"action must be an array of numbers with shape {shape}, got {action!r}") from None
-    if a.shape != shape:
-        raise ValueError(f"action must have shape {shape} (one throttle per horizontal axis), got shape {a.shape}")
-    return a
 
 
 def _check_options(options: Any, allowed: tuple[str, ...] = ()) -> dict[str, Any]:
@@ -222,7 +207,7 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
       energy at v0's substep warns (`EnergyDriftWarning`) instead of heating silently.
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": _render_fps(PARAMETERS["control_period"][0])}
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": render_fps(PARAMETERS["control_period"][0])}
 
     def __init__(self, dim: int = 3, render_mode: str | None = None, **kwargs: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -230,7 +215,7 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
         self.scene = PenaltyBallsScene(1, dim=dim, **kwargs)
         self.dim = self.scene.dim
         self.render_mode = render_mode
-        self.metadata = dict(self.metadata, render_fps=_render_fps(self.scene.control_period))
+        self.metadata = dict(self.metadata, render_fps=render_fps(self.scene.control_period))
         self.action_space = self.scene.action_space
         self.observation_space = self.scene.observation_space
         self._action_shape = self.action_space.shape
@@ -246,7 +231,7 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
             raise error.ResetNeeded("Cannot call PenaltyBallsEnv.step() before reset()")
         # fast path: a float array of the right shape is copied straight into the kernel's buffer
         if type(action) is not np.ndarray or action.shape != self._action_shape or action.dtype.kind != "f":
-            action = _coerce_action(action, self._action_shape)
+            action = coerce_action(action, self._action_shape)
         self._actions[0] = action
         self.scene.step()  # NaN / inf actions raise ValueError here, before anything moves
         info = self.scene.info(0)
@@ -308,7 +293,7 @@ class PenaltyBallsVectorEnv(VectorEnv):
 
     metadata = {
         "render_modes": ["rgb_array"],
-        "render_fps": _render_fps(PARAMETERS["control_period"][0]),
+        "render_fps": render_fps(PARAMETERS["control_period"][0]),
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
 
@@ -344,7 +329,7 @@ class PenaltyBallsVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self.autoreset_mode = autoreset_mode
         self.metadata = dict(
-            self.metadata, render_fps=_render_fps(self.scene.control_period), autoreset_mode=autoreset_mode
+            self.metadata, render_fps=render_fps(self.scene.control_period), autoreset_mode=autoreset_mode
         )
         self.single_action_space = self.scene.action_space
         self.single_observation_space = self.scene.observation_space
@@ -401,7 +386,7 @@ class PenaltyBallsVectorEnv(VectorEnv):
         scene = self.scene
         shape = (self.num_envs, scene.action_size)
         if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.kind != "f":
-            actions = _coerce_action(actions, shape)
+            actions = coerce_action(actions, shape)
         mode = self.autoreset_mode
         resetting = self._done if mode == AutoresetMode.NEXT_STEP else None
         if mode == AutoresetMode.DISABLED and self._done.any():

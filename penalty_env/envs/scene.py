@@ -29,7 +29,7 @@ from ..physics.lanes import LANES
 from . import fused_step as KE
 from .observation import ObservationLayout
 
-__all__ = ["PenaltyBallsScene", "PARAMETERS", "check_parameters"]
+__all__ = ["PenaltyBallsScene", "PARAMETERS", "check_parameters", "coerce_action", "render_fps"]
 
 # ----------------------------------------------------------------------------------------------
 # Keyword arguments: default, allowed range, meaning. The env docstrings print this table.
@@ -75,6 +75,22 @@ OBSTACLE_TRIES = 10_000
 W_GOAL = 10.0  # per metre the ball gets closer to the goal
 W_REACH = 1.0  # per metre the pusher gets closer to the push point behind the ball
 SUCCESS_BONUS = 10.0
+
+
+def render_fps(control_period: float) -> int:
+    """Frames per second of a video of the env: one frame per control period."""
+    return max(1, round(1.0 / control_period))
+
+
+def coerce_action(action: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """An action as a float array of ``shape``, or a ValueError that says what was wrong."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"action must be an array of numbers with shape {shape}, got {action!r}") from None
+    if a.shape != shape:
+        raise ValueError(f"action must have shape {shape} (one throttle per horizontal axis), got shape {a.shape}")
+    return a
 
 
 def check_parameters(dim: int, params: dict[str, Any], owner: str = "PenaltyBallsEnv.__init__") -> dict[str, Any]:

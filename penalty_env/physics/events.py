@@ -62,7 +62,15 @@ from numba.extending import overload
 from .._jit import njit
 from .broadphase import build_grid, neighbour_rows
 from .contact import pair_gap, shape_sign, terrain_gap
-from .integrators import RK4Work, VelocityVerletWork, _is, begin_world, integrate, symplectic_euler_into, world_status
+from .integrators import (
+    RK4Work,
+    VelocityVerletWork,
+    begin_world,
+    integrate,
+    is_work,
+    symplectic_euler_into,
+    world_status,
+)
 
 __all__ = ["EventBuffers", "allocate", "run_worlds", "stats", "GAP_TOL", "MAX_CALLS"]
 
@@ -695,7 +703,7 @@ def cached_acceleration(work):
 
 @overload(cached_acceleration, inline="always")
 def _cached_acceleration(work):
-    if _is(work, VelocityVerletWork):
+    if is_work(work, VelocityVerletWork):
         return lambda work: (work.a0, work.a0_valid)
     return lambda work: (None, None)
 
@@ -707,7 +715,7 @@ def forget_cache(work, b):
 
 @overload(forget_cache, inline="always")
 def _forget_cache(work, b):
-    if _is(work, VelocityVerletWork):
+    if is_work(work, VelocityVerletWork):
 
         def impl(work, b):
             work.a0_valid[b] = False
@@ -723,9 +731,9 @@ def evaluations(work, b):
 
 @overload(evaluations, inline="always")
 def _evaluations(work, b):
-    if _is(work, VelocityVerletWork):
+    if is_work(work, VelocityVerletWork):
         return lambda work, b: 1 if work.a0_valid[b] else 2
-    if _is(work, RK4Work):
+    if is_work(work, RK4Work):
         return lambda work, b: 4
     return lambda work, b: 1
 
@@ -737,7 +745,7 @@ def is_rk4(work):
 
 @overload(is_rk4, inline="always")
 def _is_rk4(work):
-    if _is(work, RK4Work):
+    if is_work(work, RK4Work):
         return lambda work: True
     return lambda work: False
 

@@ -351,7 +351,8 @@ def implicit_euler_step(work, b, dt, x, v, ext, grid, model, friction, g):
 # --------------------------------------------------------------------------------------------
 
 
-def _is(work, cls) -> bool:
+def is_work(work, cls) -> bool:
+    """At compile time: are these Numba-typed work buffers the integrator ``cls``'s?"""
     return isinstance(work, types.BaseNamedTuple) and work.instance_class is cls
 
 
@@ -371,7 +372,7 @@ def _integrate(work, b, dt, x, v, ext, grid, model, friction, g):
         (RK4Work, rk4_step),
         (ImplicitEulerWork, implicit_euler_step),
     ):
-        if _is(work, cls):
+        if is_work(work, cls):
             return lambda work, b, dt, x, v, ext, grid, model, friction, g: step(
                 work, b, dt, x, v, ext, grid, model, friction, g
             )
@@ -385,7 +386,7 @@ def begin_world(work, b):
 
 @overload(begin_world, inline="always")
 def _begin_world(work, b):
-    if _is(work, ImplicitEulerWork):
+    if is_work(work, ImplicitEulerWork):
 
         def impl(work, b):
             work.cg_failed[b] = False
@@ -413,7 +414,7 @@ def world_status(work, b, ok, x, v, g):
 
 @overload(world_status, inline="always")
 def _world_status(work, b, ok, x, v, g):
-    if _is(work, ImplicitEulerWork):
+    if is_work(work, ImplicitEulerWork):
 
         def impl(work, b, ok, x, v, g):
             st = final_status(b, ok, x, v, g)

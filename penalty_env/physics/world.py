@@ -224,12 +224,8 @@ class World:
         self._status = np.zeros(B, dtype=np.int64)
         self._ext = np.zeros((B, n, d))
         self._scalar = np.zeros(B)
-        self._deepest = (
-            np.zeros(B),
-            np.zeros(B, dtype=np.int64),
-            np.zeros(B, dtype=np.int64),
-            np.zeros(B, dtype=np.int64),
-        )
+        self._deepest = np.zeros(B)
+        self._all_worlds = np.arange(B, dtype=np.int64)
         self._grid = new_grid(B, n) if self.use_grid else None  # None: all pairs, compiled without the grid
         self._runner = Runner(
             self.stepping,
@@ -246,7 +242,7 @@ class World:
         self.dt_max = self.stability_limit()
         if self.dt > self.dt_max and not self.allow_unstable:
             raise ValueError(self._stability_message())
-        self._check_start(np.arange(B, dtype=np.int64))
+        self._check_start(self._all_worlds)
         self.dt_energy = self.energy_limit()
         if self.dt > self.dt_energy and not self.allow_unstable:
             warnings.warn(self._energy_message(), EnergyDriftWarning, stacklevel=2)
@@ -493,35 +489,50 @@ class World:
         extreme case). ``allow_unstable=True`` silences it."""
         if self.allow_unstable or worlds.size == 0:
             return
-        frac, kind, first, second = (a[: worlds.size] for a in self._deepest)
-        x, _ = self._state
-        _diagnostics.deepest_contacts(worlds, x, self._grid, self._model, self.gravity, frac, kind, first, second)
+        frac = self._deepest[: worlds.size]
+        x, v = self._state
+        _diagnostics.world_max_penetration(worlds, x, v, self._grid, self._model, self.gravity, frac)
         bad = np.flatnonzero(frac >= 1.0)
         if not bad.size:
             return
         t = int(bad[np.argmax(frac[bad])])
-        b, i, j = int(worlds[t]), int(first[t]), int(second[t])
+        b = int(worlds[t])
         where = "" if not self._batched else f" of world {b}"
-        if kind[t] == 0:
-            r = min(self.radii[i], self.radii[j])
-            ks, m_eff, what = (
-                self.ks,
-                theory.effective_mass(self.masses[i], self.masses[j]),
-                f"balls {i} and {j}{where}",
-            )
-        else:
-            r = self.radii[i]
-            ks, m_eff, what = self.ks_terrain, float(self.masses[i]), f"ball {i}{where} and terrain shape {j}"
+        what, ks, m_eff, r = self._deepest_contact(b)
         overlap = frac[t] * r
         speed = overlap * theory.natural_frequency(ks, m_eff)
         warnings.warn(
-            f"{what} start overlapping by {overlap:.4g} ({frac[t]:.3g} x the smaller radius {r:g}; {bad.size} world(s) "
-            f"so): the spring stores 1/2 ks overlap^2 = {0.5 * ks * overlap**2:.4g} and releases it as a speed of "
-            f"{speed:.4g}, enough to drive any contact as stiff through a ball, and the scene's energy will not stay "
-            f"what this state says. Separate the balls (allow_unstable=True silences this warning).",
+            f"{what}{where} start overlapping by {overlap:.4g} ({frac[t]:.3g} x the smaller radius {r:g}; "
+            f"{bad.size} world(s) so): the spring stores 1/2 ks overlap^2 = {0.5 * ks * overlap**2:.4g} and releases "
+            f"it as a speed of {speed:.4g}, enough to drive any contact as stiff through a ball, and the scene's "
+            f"energy will not stay what this state says. Separate the balls (allow_unstable=True silences this "
+            f"warning).",
             StartOverlapWarning,
             stacklevel=3,
         )
+
+    def _deepest_contact(self, b: int) -> tuple[str, float, float, float]:
+        """(which bodies, ks, m_eff, the smaller radius) of world b's deepest contact, by brute force
+        (only when a start is refused; pairs only up to 4,096 balls)."""
+        x = self._state.positions[b]
+        r = self.radii
+        best, label, ks, m_eff, rs = -1.0, "some balls", self.ks, float(self.masses.min()), float(r.min())
+        if len(x) <= 4096:
+            gap = r[:, None] + r[None, :] - np.linalg.norm(x[:, None] - x[None, :], axis=-1)
+            frac = gap / np.minimum(r[:, None], r[None, :])
+            np.fill_diagonal(frac, -np.inf)
+            a, c = (int(k) for k in np.unravel_index(np.argmax(frac), frac.shape))
+            i, j = min(a, c), max(a, c)
+            if frac[i, j] > best:
+                best, label = float(frac[i, j]), f"balls {i} and {j}"
+                ks, m_eff, rs = self.ks, theory.effective_mass(self.masses[i], self.masses[j]), float(min(r[i], r[j]))
+        for s, shape in enumerate(self.terrain):
+            pen = (r - shape.phi(x)) / r
+            k = int(np.argmax(pen))
+            if pen[k] > best:
+                best, label = float(pen[k]), f"ball {k} and terrain shape {s}"
+                ks, m_eff, rs = self.ks_terrain, float(self.masses[k]), float(r[k])
+        return label, ks, m_eff, rs
 
     def invalidate_cache(self, worlds: Any = None) -> None:
         """Forget what was derived from the state (velocity Verlet's cached acceleration, a large
@@ -573,7 +584,7 @@ class World:
     def max_penetration(self) -> Any:
         """Largest overlap as a fraction of the (smaller) radius in contact, per world."""
         x, v = self._state
-        _diagnostics.world_max_penetration(x, v, self._grid, self._model, self.gravity, self._scalar)
+        _diagnostics.world_max_penetration(self._all_worlds, x, v, self._grid, self._model, self.gravity, self._scalar)
         return self._per_world(self._scalar)
 
     def momentum(self) -> np.ndarray:

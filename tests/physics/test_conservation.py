@@ -156,16 +156,15 @@ from hypothesis import strategies as st  # noqa: E402
     n=st.integers(2, 10),
     seed=st.integers(0, 2**31 - 1),
     zeta=st.floats(0.05, 0.9),
-    mu=st.sampled_from([0.0, 0.4]),
-    integrator=st.sampled_from(["symplectic_euler", "velocity_verlet", "rk4", "implicit_euler"]),
-    damping=st.sampled_from(["linear", "no_tension"]),
+    integrator=st.sampled_from(["symplectic_euler", "velocity_verlet"]),
 )
-def test_a_random_damped_scene_never_gains_energy_between_contacts(d, n, seed, zeta, mu, integrator, damping):
+def test_a_random_damped_scene_never_gains_energy_between_contacts(d, n, seed, zeta, integrator):
     """Stepped one step at a time, a step that starts and ends with no contact (every ball in free
     flight) changes the energy only by the integrator's treatment of gravity, which never adds any
-    (symplectic Euler loses 1/2 m g^2 dt^2 per step): rises stay at round-off."""
-    if integrator == "implicit_euler" and damping == "no_tension":
-        damping = "linear"  # refused by the World
+    (symplectic Euler loses 1/2 m g^2 dt^2 per step): rises stay at round-off. (The two
+    integrators whose energy is bounded, with friction and the no-tension clip on; each variant
+    costs a compilation.)"""
+    mu, damping = 0.4, "no_tension"
     x, v, radii, _, bowl = balls_in_bowl(n, d, seed=seed % 10_000, radius=0.08, speed=2.0, min_height=0.3)
     masses = np.random.default_rng(seed).uniform(0.5, 2.0, n)
     ks = 1e4

@@ -16,44 +16,12 @@ import warnings
 import numpy as np
 import pytest
 
-from penalty_env.physics import Bowl, World, theory
+from penalty_env.physics import World, theory
 from penalty_env.physics.configure import configure
 from penalty_env.physics.world import EnergyDriftWarning
-from penalty_env.scenarios import balls_in_bowl
+from penalty_env.scenarios import elastic_gas, wall_collision_gains
 
 PHASES = 256
-
-
-def _wall_collisions(integrator, omega_dt, zeta, damping="linear"):
-    """e_num^2 - 1 of a ball hitting the floor of a Bowl head on (along its axis, gravity off), one
-    world per phase of the contact's start within the step, exactly as the energy model sets it up."""
-    r, m, ks, v0 = 0.1, 1.0, 1e4, 1.0
-    omega = math.sqrt(ks / m)
-    dt = omega_dt / omega
-    kd = 2.0 * zeta * math.sqrt(ks * m)
-    phase = (np.arange(PHASES) + 0.5) / PHASES
-    x = np.zeros((PHASES, 1, 3))
-    x[:, 0, 2] = r + v0 * dt * phase  # the gap closes during the first step
-    v = np.zeros_like(x)
-    v[:, 0, 2] = -v0
-    w = World(
-        x,
-        [r],
-        [m],
-        v,
-        terrain=Bowl((0.0, 0.0, 50.0), 50.0),
-        gravity=(0.0, 0.0, 0.0),
-        ks=ks,
-        kd=kd,
-        damping=damping,
-        integrator=integrator,
-        dt=dt,
-        allow_unstable=True,
-    )
-    w.step(int(2.0 * math.pi / omega_dt) + 10)
-    vz = w.velocities[:, 0, 2]
-    assert np.all(w.positions[:, 0, 2] > r) and np.all(vz > 0), "every ball has left the floor"
-    return (vz / v0) ** 2 - 1.0
 
 
 @pytest.mark.parametrize(
@@ -69,7 +37,7 @@ def _wall_collisions(integrator, omega_dt, zeta, damping="linear"):
 )
 def test_the_energy_model_is_the_worlds_own_collision(integrator, omega_dt, zeta):
     """The model is the implementation: the World's mean gain over the same phases agrees with it."""
-    world = _wall_collisions(integrator, omega_dt, zeta)
+    world = wall_collision_gains(integrator, omega_dt, zeta, PHASES)
     mean, spread = theory.energy_gain_per_collision(integrator, omega_dt, zeta, phases=PHASES)
     assert world.mean() == pytest.approx(mean, abs=1e-9 + 1e-6 * abs(mean))
     assert world.std() == pytest.approx(spread, rel=1e-5, abs=1e-9)
@@ -101,16 +69,8 @@ def test_the_energy_limit_sits_where_the_mean_gain_reaches_the_budget():
     assert theory.energy_omega_dt("implicit_euler", 0.0) == math.inf
 
 
-def _gas(B=192, n=8, seed=0):
-    """B worlds of n balls of radius 0.1 inside a spherical cage of radius 1 about the origin,
-    random velocities (normal, 1 m/s per axis)."""
-    x, _, _, _, cage = balls_in_bowl(n, 3, worlds=B, seed=seed, radius=0.1, bowl_radius=1.0, spacing=0.01)
-    return x - np.array(cage.center), np.random.default_rng(seed).normal(0.0, 1.0, (B, n, 3)), 0.1
-
-
 def test_the_world_warns_with_the_figures_where_an_elastic_scene_would_heat():
-    x, v, r = _gas(B=2, n=4)
-    kw = dict(terrain=Bowl((0.0, 0.0, 0.0), 1.0), gravity=(0.0, 0.0, 0.0), ks=1e4, kd=0.0)
+    x, v, r, kw = elastic_gas(2, 4)
     probe = World(x, np.full(4, r), np.ones(4), v, dt=1.0, allow_unstable=True, **kw)
     with pytest.warns(EnergyDriftWarning, match=r"can gain up to .* of its energy per collision .*budget.*substeps"):
         World(x, np.full(4, r), np.ones(4), v, dt=probe.stability_limit(), **kw)
@@ -128,9 +88,8 @@ def test_a_dense_elastic_gas_at_the_largest_step_accepted_keeps_its_energy_withi
     the pairs: median energy 2.3x the start, 7% of the worlds above 10x. Now the mean relative drift
     over the worlds (the systematic part: each collision also adds a random error of either sign,
     which averages out) stays within the budget for the collisions counted."""
-    x, v, r = _gas()
+    x, v, r, kw = elastic_gas()
     B, n = x.shape[:2]
-    kw = dict(terrain=Bowl((0.0, 0.0, 0.0), 1.0), gravity=(0.0, 0.0, 0.0), ks=1e4, kd=0.0)
     probe = World(x, np.full(n, r), np.ones(n), v, dt=1.0, allow_unstable=True, **kw)
     with warnings.catch_warnings():
         warnings.simplefilter("error", EnergyDriftWarning)

@@ -32,7 +32,19 @@ PATH_CASES = (
         for integ in ALL_INTEGRATORS
     ]
     + [
-        pytest.param("scalar", integ, "grid", False, 12, 0.3, True, id=f"scalar-{integ}-grid+friction+forces")
+        # explicit and implicit Euler on the grid with friction compile the most (about 2.5 min of the
+        # default run between them): with the long tests
+        pytest.param(
+            "scalar",
+            integ,
+            "grid",
+            False,
+            12,
+            0.3,
+            True,
+            id=f"scalar-{integ}-grid+friction+forces",
+            marks=[pytest.mark.slow] if integ in ("explicit_euler", "implicit_euler") else [],
+        )
         for integ in ALL_INTEGRATORS
     ]
     + [
