@@ -323,7 +323,7 @@ class World:
         gain = theory.energy_gain_envelope(self.integrator, omega * self.dt, zeta, self.damping)
         substeps = math.ceil(self.dt / self.dt_energy) if self.dt_energy > 0.0 else math.inf
         return (
-            f"dt={self.dt:g}: a {label} contact (ks={ks:g}, kd={kd:g}, m_eff={me:g}: omega*dt={omega * self.dt:.3g}, "
+            f"dt={self.dt:g}: a {label} contact (ks={ks:g}, kd={kd + 0.0:g}, m_eff={me:g}: omega*dt={omega * self.dt:.3g}, "
             f"zeta={abs(zeta):.3g}) can gain up to {gain:.3g} of its energy per collision on average with "
             f"{self.integrator} at this step, above the budget of {theory.ENERGY_BUDGET:g} (1% per 1,000 collisions): "
             f"a scene of many collisions heats up. dt <= {self.dt_energy:.6g} ({substeps} substeps per step of "
@@ -337,7 +337,7 @@ class World:
         zeta = theory.damping_ratio(ks, kd, me)
         head = (
             f"dt={self.dt:g} is above the stability limit of {self.integrator} for the stiffest "
-            f"{label} contact (ks={ks:g}, kd={kd:g}, m_eff={me:g}: omega*dt={omega * self.dt:.3g}, zeta={zeta:.3g})"
+            f"{label} contact (ks={ks:g}, kd={kd + 0.0:g}, m_eff={me:g}: omega*dt={omega * self.dt:.3g}, zeta={zeta:.3g})"
         )
         if self.dt_max <= 0.0:
             return (
@@ -505,7 +505,7 @@ class World:
             f"{what}{where} start overlapping by {overlap:.4g} ({frac[t]:.3g} x the smaller radius {r:g}; "
             f"{bad.size} world(s) so): the spring stores 1/2 ks overlap^2 = {0.5 * ks * overlap**2:.4g} and releases "
             f"it as a speed of {speed:.4g}, enough to drive any contact as stiff through a ball, and the scene's "
-            f"energy will not stay what this state says. Separate the balls (allow_unstable=True silences this "
+            f"energy will not stay what this state says. Move them apart (allow_unstable=True silences this "
             f"warning).",
             StartOverlapWarning,
             stacklevel=3,
