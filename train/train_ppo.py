@@ -17,6 +17,9 @@ rate on held-out seeds as training goes. The run folder (``--out``) receives:
   summary.json        timesteps, wall_time_s, env_steps_per_s, success_rate and mean_return
                       (100 episodes on held-out seeds), random_success_rate and
                       random_mean_return (a random policy on the same seeds), and the settings
+
+``train(settings, out)`` is the run itself, importable: this CLI and the Ray Tune sweep
+(``train/sweep.py``) both call it, so a trial of a sweep is exactly this script's run.
 """
 
 from __future__ import annotations
@@ -24,9 +27,12 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import sys
 import time
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -49,6 +55,97 @@ DEFAULTS = dict(
     eval_episodes=40,
     final_episodes=100,
 )
+
+# Every setting of one run, train()'s first argument: the defaults above, plus these.
+SETTINGS: dict[str, Any] = dict(
+    DEFAULTS,
+    seed=0,
+    env_kwargs={},
+    normalize=True,
+    threads=1,  # torch threads
+    numba_threads=None,  # None: Numba's own default (every core)
+    tensorboard=None,
+    progress=True,
+    gif=True,
+)
+# the settings summary.json records under "hyperparameters"
+HYPERPARAMETERS = (
+    "n_envs",
+    "n_steps",
+    "batch_size",
+    "n_epochs",
+    "learning_rate",
+    "gamma",
+    "gae_lambda",
+    "ent_coef",
+    "clip_range",
+    "net_arch",
+)
+# integer settings and their lower bound
+_INTS = {
+    "timesteps": 1,
+    "n_envs": 1,
+    "n_steps": 1,
+    "batch_size": 2,
+    "n_epochs": 1,
+    "eval_freq": 1,
+    "eval_episodes": 1,
+    "final_episodes": 1,
+    "seed": 0,
+    "threads": 1,
+}
+# float settings: (low, high, low included, high included)
+_FLOATS = {
+    "learning_rate": (0.0, math.inf, False, False),
+    "gamma": (0.0, 1.0, False, True),
+    "gae_lambda": (0.0, 1.0, True, True),
+    "ent_coef": (0.0, math.inf, True, False),
+    "clip_range": (0.0, math.inf, False, False),
+}
+
+
+def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
+    """``settings`` with the defaults of :data:`SETTINGS` filled in, or a ValueError that names
+    the setting, its value and what is allowed (an unknown name lists the known ones)."""
+    unknown = [k for k in settings if k not in SETTINGS]
+    if unknown:
+        raise ValueError(
+            f"unknown setting {unknown[0]!r} (value {settings[unknown[0]]!r}); the settings are: {', '.join(SETTINGS)}"
+        )
+    s = {**SETTINGS, **settings}
+    for key, low in _INTS.items():
+        v = s[key]
+        if isinstance(v, bool) or not isinstance(v, int) or v < low:
+            raise ValueError(f"setting {key!r} must be an integer >= {low}, got {v!r}")
+    for key, (lo, hi, lo_in, hi_in) in _FLOATS.items():
+        v = s[key]
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        ok = ok and (v >= lo if lo_in else v > lo) and (v <= hi if hi_in else v < hi)
+        if not ok:
+            rng = f"{'[' if lo_in else '('}{lo:g}, {hi:g}{']' if hi_in else ')'}"
+            raise ValueError(f"setting {key!r} must be a number in {rng}, got {v!r}")
+        s[key] = float(v)
+    arch = s["net_arch"]
+    if isinstance(arch, (list, tuple)):
+        arch = ",".join(str(h) for h in arch)
+    parts = [p for p in str(arch).split(",") if p.strip()]
+    if not all(p.strip().isdigit() and int(p) >= 1 for p in parts):
+        raise ValueError(
+            f"setting 'net_arch' must be hidden layer sizes >= 1, comma separated (e.g. '128,128'), got {s['net_arch']!r}"
+        )
+    s["net_arch"] = str(arch)
+    nt = s["numba_threads"]
+    if nt is not None and (isinstance(nt, bool) or not isinstance(nt, int) or nt < 1):
+        raise ValueError(f"setting 'numba_threads' must be None or an integer >= 1, got {nt!r}")
+    if not isinstance(s["env_kwargs"], Mapping):
+        raise ValueError(f"setting 'env_kwargs' must be a mapping of env keyword arguments, got {s['env_kwargs']!r}")
+    if not isinstance(s["env_id"], str):
+        raise ValueError(f"setting 'env_id' must be a registered env id, got {s['env_id']!r}")
+    for key in ("normalize", "progress", "gif"):
+        if not isinstance(s[key], bool):
+            raise ValueError(f"setting {key!r} must be true or false, got {s[key]!r}")
+    s["env_kwargs"] = dict(s["env_kwargs"])
+    return s
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -116,11 +213,53 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--threads", type=int, default=1, help="torch threads (default: %(default)s: the physics uses the other core)"
     )
+    p.add_argument(
+        "--numba-threads",
+        type=int,
+        default=None,
+        help="Numba threads of the physics (default: Numba's own, every core)",
+    )
     return p
 
 
+def settings_from_args(args: argparse.Namespace) -> dict[str, Any]:
+    """The run's settings (:data:`SETTINGS`) from the parsed command line."""
+    s = {k: getattr(args, k) for k in DEFAULTS}
+    s.update(
+        seed=args.seed,
+        env_kwargs=C.parse_env_kwargs(args.env_kwarg),
+        normalize=not args.no_normalize,
+        threads=args.threads,
+        numba_threads=args.numba_threads,
+        tensorboard=args.tensorboard,
+        progress=not args.no_progress,
+        gif=not args.no_gif,
+    )
+    return s
+
+
+def default_out(settings: Mapping[str, Any]) -> Path:
+    return Path("runs") / f"ppo-{settings['env_id'].split(':')[-1]}-seed{settings['seed']}"
+
+
 def main(argv=None) -> dict:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        settings = check_settings(settings_from_args(args))
+    except ValueError as e:
+        parser.error(str(e))
+    return train(settings, args.out or default_out(settings))
+
+
+def train(
+    settings: Mapping[str, Any], out: Path, on_eval: Callable[[dict[str, Any]], None] | None = None
+) -> dict[str, Any]:
+    """One training run: PPO with ``settings`` (names and defaults in :data:`SETTINGS`), its run
+    folder written to ``out`` (the files listed in the module docstring). Returns the summary
+    (summary.json). ``on_eval`` is called with each point of the learning curve as it is measured
+    (the sweep reports them to Ray Tune)."""
+    s = check_settings(settings)
     import numpy as np
     import torch
     from stable_baselines3 import PPO
@@ -128,16 +267,22 @@ def main(argv=None) -> dict:
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecNormalize
 
-    torch.set_num_threads(max(1, args.threads))
-    env_kwargs = C.parse_env_kwargs(args.env_kwarg)
-    out: Path = args.out or Path("runs") / f"ppo-{args.env_id.split(':')[-1]}-seed{args.seed}"
-    out.mkdir(parents=True, exist_ok=True)
-    set_random_seed(args.seed)
+    torch.set_num_threads(max(1, s["threads"]))
+    if s["numba_threads"] is not None:
+        import numba
 
-    venv = C.make_env(args.env_id, args.n_envs, args.seed, env_kwargs)
-    eval_env = C.make_env(args.env_id, min(args.n_envs, args.eval_episodes), C.EVAL_SEED_OFFSET + args.seed, env_kwargs)
-    if not args.no_normalize:
-        venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=args.gamma)
+        numba.set_num_threads(min(s["numba_threads"], numba.config.NUMBA_NUM_THREADS))
+    env_id: str = s["env_id"]
+    seed: int = s["seed"]
+    env_kwargs: dict[str, Any] = s["env_kwargs"]
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    set_random_seed(seed)
+
+    venv = C.make_env(env_id, s["n_envs"], seed, env_kwargs)
+    eval_env = C.make_env(env_id, min(s["n_envs"], s["eval_episodes"]), C.EVAL_SEED_OFFSET + seed, env_kwargs)
+    if s["normalize"]:
+        venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=s["gamma"])
         eval_env = VecNormalize(eval_env, norm_obs=True, norm_reward=False, training=False)
 
     curve: list[dict] = []
@@ -156,47 +301,49 @@ def main(argv=None) -> dict:
                         "wall_time_s": time.perf_counter() - t0,
                     }
                 )
-                if args.no_progress:
+                if not s["progress"]:
                     c = curve[-1]
                     print(
                         f"[eval] steps={c['timesteps']:>9,} success={c['success_rate']:.2f} return={c['mean_return']:.2f}",
                         flush=True,
                     )
+                if on_eval is not None:
+                    on_eval(dict(curve[-1]))
             return cont
 
     eval_cb = CurveCallback(
         eval_env,
-        n_eval_episodes=args.eval_episodes,
-        eval_freq=max(1, args.eval_freq // args.n_envs),
+        n_eval_episodes=s["eval_episodes"],
+        eval_freq=max(1, s["eval_freq"] // s["n_envs"]),
         deterministic=True,
         verbose=0,
     )
-    hidden = [int(h) for h in args.net_arch.split(",") if h.strip()]
-    lr0 = args.learning_rate
+    hidden = [int(h) for h in s["net_arch"].split(",") if h.strip()]
+    lr0 = s["learning_rate"]
     model = PPO(
         "MlpPolicy",
         venv,
-        n_steps=args.n_steps,
-        batch_size=args.batch_size,
-        n_epochs=args.n_epochs,
+        n_steps=s["n_steps"],
+        batch_size=s["batch_size"],
+        n_epochs=s["n_epochs"],
         learning_rate=lambda frac: lr0 * frac,
-        gamma=args.gamma,
-        gae_lambda=args.gae_lambda,
-        ent_coef=args.ent_coef,
-        clip_range=args.clip_range,
+        gamma=s["gamma"],
+        gae_lambda=s["gae_lambda"],
+        ent_coef=s["ent_coef"],
+        clip_range=s["clip_range"],
         policy_kwargs=dict(net_arch=dict(pi=hidden, vf=hidden)),
-        tensorboard_log=str(args.tensorboard) if args.tensorboard else None,
-        seed=args.seed,
+        tensorboard_log=str(s["tensorboard"]) if s["tensorboard"] else None,
+        seed=seed,
         device="cpu",
         verbose=0,
     )
     print(
-        f"training PPO on {args.env_id} {env_kwargs or ''}: {args.timesteps:,} steps, "
-        f"{args.n_envs} worlds, seed {args.seed} -> {out}",
+        f"training PPO on {env_id} {env_kwargs or ''}: {s['timesteps']:,} steps, "
+        f"{s['n_envs']} worlds, seed {seed} -> {out}",
         flush=True,
     )
     t0 = time.perf_counter()
-    model.learn(total_timesteps=args.timesteps, callback=eval_cb, progress_bar=not args.no_progress)
+    model.learn(total_timesteps=s["timesteps"], callback=eval_cb, progress_bar=s["progress"])
     wall = time.perf_counter() - t0
 
     model.save(out / "model.zip")
@@ -205,20 +352,20 @@ def main(argv=None) -> dict:
         vecnorm.save(str(out / "vecnormalize.pkl"))
 
     # final evaluation on held-out seeds, and a random policy on the very same seeds
-    final_seed = C.FINAL_SEED_OFFSET + args.seed
-    n_eval_envs = min(20, args.final_episodes)
+    final_seed = C.FINAL_SEED_OFFSET + seed
+    n_eval_envs = min(20, s["final_episodes"])
     trained = C.run_episodes(
-        C.make_env(args.env_id, n_eval_envs, final_seed, env_kwargs),
+        C.make_env(env_id, n_eval_envs, final_seed, env_kwargs),
         C.model_policy(model, vecnorm),
-        args.final_episodes,
+        s["final_episodes"],
     )
-    probe = C.make_env(args.env_id, n_eval_envs, final_seed, env_kwargs)
-    rand = C.run_episodes(probe, C.random_policy(probe.action_space, final_seed), args.final_episodes)
+    probe = C.make_env(env_id, n_eval_envs, final_seed, env_kwargs)
+    rand = C.run_episodes(probe, C.random_policy(probe.action_space, final_seed), s["final_episodes"])
 
     summary = {
-        "env_id": args.env_id,
+        "env_id": env_id,
         "env_kwargs": env_kwargs,
-        "seed": args.seed,
+        "seed": seed,
         "timesteps": int(model.num_timesteps),
         "wall_time_s": round(wall, 2),
         "env_steps_per_s": round(model.num_timesteps / wall, 1),
@@ -226,25 +373,11 @@ def main(argv=None) -> dict:
         "mean_return": trained["mean_return"],
         "std_return": trained["std_return"],
         "eval_episodes": trained["episodes"],
-        "eval_seeds": f"{final_seed}..{final_seed + n_eval_envs - 1} (held out; training used {args.seed}..{args.seed + args.n_envs - 1})",
+        "eval_seeds": f"{final_seed}..{final_seed + n_eval_envs - 1} (held out; training used {seed}..{seed + s['n_envs'] - 1})",
         "random_success_rate": rand["success_rate"],
         "random_mean_return": rand["mean_return"],
-        "hyperparameters": {
-            k: getattr(args, k)
-            for k in (
-                "n_envs",
-                "n_steps",
-                "batch_size",
-                "n_epochs",
-                "learning_rate",
-                "gamma",
-                "gae_lambda",
-                "ent_coef",
-                "clip_range",
-                "net_arch",
-            )
-        },
-        "normalize": not args.no_normalize,
+        "hyperparameters": {k: s[k] for k in HYPERPARAMETERS},
+        "normalize": s["normalize"],
         "curve": curve,
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
@@ -253,8 +386,8 @@ def main(argv=None) -> dict:
         w.writeheader()
         w.writerows(curve)
     plot_curve(curve, summary, out / "learning_curve.png")
-    if not args.no_gif:
-        C.record_gif(args.env_id, env_kwargs, C.model_policy(model, vecnorm), out / "policy.gif", seed=final_seed)
+    if s["gif"]:
+        C.record_gif(env_id, env_kwargs, C.model_policy(model, vecnorm), out / "policy.gif", seed=final_seed)
 
     print(
         f"done in {wall:.0f} s ({summary['env_steps_per_s']:,.0f} env-steps/s): success {trained['success_rate']:.0%} "
