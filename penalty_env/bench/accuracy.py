@@ -42,6 +42,7 @@ import csv
 import math
 import os
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -127,8 +128,43 @@ def _drop_ends(zeta, damping):
     return True
 
 
-def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pile", "damped_pile"), fit=False):
-    """Every run of the chart (and, with ``fit``, the extra zetas of the fitted models)."""
+class Cell(NamedTuple):
+    """One run of the sweep: a scenario measured for one method, damping, zeta and step."""
+
+    scenario: str
+    integrator: str
+    events: bool
+    damping: str
+    zeta: float
+    spc: int
+    kwargs: dict  # the scenario function's other arguments (phases, t_end, worlds, spc_reference)
+
+
+def run_cell(cell: Cell) -> Measure:
+    """Measure one cell (the same call, serial or in a Ray task)."""
+    i, ev, d, z, spc, kw = cell.integrator, cell.events, cell.damping, cell.zeta, cell.spc, cell.kwargs
+    if cell.scenario == "pair":
+        return pair_collision(i, ev, d, z, spc, **kw)
+    if cell.scenario == "drop":
+        return bowl_drop(i, ev, d, z, spc, **kw)
+    if cell.scenario == "rest":
+        return resting(i, ev, d, z, spc)
+    if cell.scenario == "elastic_pile":
+        return elastic_pile(i, ev, spc, **kw)
+    if cell.scenario == "damped_pile":
+        return damped_pile(i, ev, d, z, spc, **kw)
+    raise ValueError(f"unknown scenario {cell.scenario!r}; known: {', '.join(SCENARIOS)}")
+
+
+SCENARIOS = ("pair", "drop", "rest", "elastic_pile", "damped_pile")
+
+
+def cells(quick=False, scenarios=SCENARIOS, fit=False) -> list[Cell]:
+    """Every run of the chart (and, with ``fit``, the extra zetas of the fitted models), in the
+    order of the CSV's rows."""
+    unknown = [sc for sc in scenarios if sc not in SCENARIOS]
+    if unknown:
+        raise ValueError(f"scenarios: unknown scenario {unknown[0]!r}; known: {', '.join(SCENARIOS)}")
     spcs = (4, 16, 64) if quick else SPCS
     zetas = (0.3,) if quick else ZETAS
     dampings = ("linear",) if quick else DAMPINGS
@@ -136,18 +172,7 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
     methods = [(i, e) for i in INTEGRATORS for e in (False, True)]
     if quick:
         methods = [("symplectic_euler", False), ("velocity_verlet", False), ("rk4", False), ("rk4", True)]
-    rows = []
-    t0 = time.perf_counter()
-
-    def emit(scenario, integ, ev, damping, zeta, spc, m):
-        new = list(_rows(scenario, integ, ev, damping, zeta, spc, m))
-        rows.extend(new)
-        errs = " ".join(f"{r['metric']}={r['error']:.3g}" for r in new)
-        log(
-            f"[{time.perf_counter() - t0:7.1f}s] {scenario:12s} {integ:16s} events={int(ev)} {damping:10s} "
-            f"zeta={zeta:<4g} spc={spc:<4d} {errs}{'  DIVERGED' if m.diverged else ''}"
-        )
-
+    out: list[Cell] = []
     fit_zetas = zetas + (FIT_EXTRA_ZETAS if fit and not quick else ())
     for integ, ev in methods:
         for damping in dampings:
@@ -158,13 +183,11 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
                     continue  # identical to linear without damping
                 for spc in spcs:
                     if "pair" in scenarios:
-                        emit(
-                            "pair", integ, ev, damping, zeta, spc, pair_collision(integ, ev, damping, zeta, spc, phases)
-                        )
+                        out.append(Cell("pair", integ, ev, damping, zeta, spc, {"phases": phases}))
                     if "drop" in scenarios and _drop_ends(zeta, damping):
-                        emit("drop", integ, ev, damping, zeta, spc, bowl_drop(integ, ev, damping, zeta, spc, phases))
+                        out.append(Cell("drop", integ, ev, damping, zeta, spc, {"phases": phases}))
                     if zeta in zetas and zeta > 0.0 and "rest" in scenarios:
-                        emit("rest", integ, ev, damping, zeta, spc, resting(integ, ev, damping, zeta, spc))
+                        out.append(Cell("rest", integ, ev, damping, zeta, spc, {}))
     pile_spcs = (8, 32) if quick else SPCS
     t_el = PILE_T_ELASTIC / (4 if quick else 1)
     t_dp = PILE_T_DAMPED / (2 if quick else 1)
@@ -172,15 +195,8 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
     if "elastic_pile" in scenarios:
         for integ, ev in methods:
             for spc in pile_spcs:
-                emit(
-                    "elastic_pile",
-                    integ,
-                    ev,
-                    "linear",
-                    0.0,
-                    spc,
-                    elastic_pile(integ, ev, spc, t_end=t_el, worlds=pile_worlds),
-                )
+                kw = {"t_end": t_el, "worlds": pile_worlds}
+                out.append(Cell("elastic_pile", integ, ev, "linear", 0.0, spc, kw))
     if "damped_pile" in scenarios:
         spc_ref = 16 * max(pile_spcs)
         for damping in dampings:
@@ -189,18 +205,84 @@ def sweep(quick=False, log=print, scenarios=("pair", "drop", "rest", "elastic_pi
                     if not supported(integ, damping):
                         continue
                     for spc in pile_spcs:
-                        emit(
-                            "damped_pile",
-                            integ,
-                            ev,
-                            damping,
-                            zeta,
-                            spc,
-                            damped_pile(
-                                integ, ev, damping, zeta, spc, spc_reference=spc_ref, t_end=t_dp, worlds=pile_worlds
-                            ),
-                        )
+                        kw = {"spc_reference": spc_ref, "t_end": t_dp, "worlds": pile_worlds}
+                        out.append(Cell("damped_pile", integ, ev, damping, zeta, spc, kw))
+    return out
+
+
+def sweep(quick=False, log=print, scenarios=SCENARIOS, fit=False, ray=False, address=None):
+    """Every run of the chart (and, with ``fit``, the extra zetas of the fitted models): the rows
+    of the CSV. ``ray``: each cell is a Ray task of one CPU (Numba on one thread), on the cluster
+    at ``address`` (None: ``RAY_ADDRESS`` if set, else a local one); the rows, their order and every
+    value but the wall times are those of the serial sweep."""
+    todo = cells(quick, scenarios, fit)
+    rows = []
+    t0 = time.perf_counter()
+    measures = _ray_measures(todo, address) if ray else map(run_cell, todo)
+    try:
+        for c, m in zip(todo, measures):
+            new = list(_rows(c.scenario, c.integrator, c.events, c.damping, c.zeta, c.spc, m))
+            rows.extend(new)
+            errs = " ".join(f"{r['metric']}={r['error']:.3g}" for r in new)
+            log(
+                f"[{time.perf_counter() - t0:7.1f}s] {c.scenario:12s} {c.integrator:16s} events={int(c.events)} "
+                f"{c.damping:10s} zeta={c.zeta:<4g} spc={c.spc:<4d} {errs}{'  DIVERGED' if m.diverged else ''}"
+            )
+    finally:
+        close = getattr(measures, "close", None)
+        if close is not None:
+            close()  # the Ray generator shuts down the cluster it started
     return rows
+
+
+def _cell_task(cell: Cell, reference=None) -> Measure:
+    """A Ray task: one thread of Numba per task (a task holds one CPU), the damped pile's
+    reference (computed once, by :func:`_reference_task`) put where :func:`pile_reference` finds it."""
+    import numba
+
+    from .. import scenarios as SC
+
+    numba.set_num_threads(1)
+    if reference is not None:
+        kw = cell.kwargs
+        SC._REFERENCE_CACHE[(cell.damping, cell.zeta, kw["spc_reference"], kw["t_end"], kw["worlds"])] = reference
+    return run_cell(cell)
+
+
+def _reference_task(damping, zeta, spc_ref, t_end, worlds):
+    import numba
+
+    from .. import scenarios as SC
+
+    numba.set_num_threads(1)
+    return SC.pile_reference(damping, zeta, spc_ref, t_end, worlds)
+
+
+def _ray_measures(todo: list[Cell], address=None):
+    """The cells' measures, in order, from Ray tasks of one CPU each (yielded as they come in order)."""
+    import ray
+
+    started = not ray.is_initialized()
+    if started:
+        ray.init(address=address)
+    try:
+        cell_task = ray.remote(num_cpus=1)(_cell_task)
+        ref_task = ray.remote(num_cpus=1)(_reference_task)
+        references = {}
+        refs = []
+        for c in todo:
+            reference = None
+            if c.scenario == "damped_pile":
+                key = (c.damping, c.zeta, c.kwargs["spc_reference"], c.kwargs["t_end"], c.kwargs["worlds"])
+                if key not in references:
+                    references[key] = ref_task.remote(*key)
+                reference = references[key]
+            refs.append(cell_task.remote(c, reference))
+        for r in refs:
+            yield ray.get(r)
+    finally:
+        if started:
+            ray.shutdown()
 
 
 def _open(path, mode):
@@ -750,8 +832,24 @@ def main(argv=None) -> None:
     ap.add_argument("--from-csv", default=None, help="skip the runs: chart (and fit) an existing accuracy.csv[.gz]")
     ap.add_argument("--no-plot", action="store_true")
     ap.add_argument("--tables", action="store_true", help="print the README's markdown tables")
-    ap.add_argument("--scenarios", default="pair,drop,rest,elastic_pile,damped_pile")
+    ap.add_argument("--scenarios", default=",".join(SCENARIOS))
+    ap.add_argument(
+        "--ray",
+        action="store_true",
+        help="run the cells as Ray tasks of one CPU each (the `sweep` extra): a local cluster, or the one at "
+        "--address / RAY_ADDRESS; the CSV equals the serial one but for the wall times",
+    )
+    ap.add_argument(
+        "--address", default=None, help="with --ray: the Ray cluster's address (default: RAY_ADDRESS, else local)"
+    )
     args = ap.parse_args(argv)
+    if args.address and not args.ray:
+        ap.error("--address needs --ray")
+    scenarios = tuple(args.scenarios.split(","))
+    try:
+        cells(True, scenarios)
+    except ValueError as e:
+        ap.error(f"--scenarios {args.scenarios!r}: {e}")
     models_path = args.models or default_models_path()
     if args.fit and models_path is None:
         ap.error("--fit: penalty_env is installed, not a source checkout: say where to write with --models PATH")
@@ -765,7 +863,7 @@ def main(argv=None) -> None:
     if args.from_csv:
         rows = read_csv(args.from_csv)
     else:
-        rows = sweep(args.quick, scenarios=tuple(args.scenarios.split(",")), fit=args.fit)
+        rows = sweep(args.quick, scenarios=scenarios, fit=args.fit, ray=args.ray, address=args.address)
         write_csv(rows, os.path.join(out, "accuracy.csv.gz"))
     if args.fit:
         models = fit_models(rows)
