@@ -126,3 +126,28 @@ def test_tunnelling_boundaries_are_where_the_theory_puts_them():
     assert S.tunnelling_outcome("implicit_euler", slow, 0.3 * r / slow)[0] == 0
     assert S.tunnelling_outcome("implicit_euler", slow, 3.0 * r / slow)[0] == 2
     assert S.tunnelling_outcome("rk4", slow, 3.0 * r / slow)[0] in (1, 2, 3)
+
+
+# --- the sweep's cells as Ray tasks ---------------------------------------------------------------
+
+
+def _csv_without_wall_times(rows, path):
+    """The CSV as written, without its one measured time (wall_per_sim_s differs between any two runs)."""
+    A.write_csv(rows, str(path))
+    col = A.FIELDS.index("wall_per_sim_s")
+    return [",".join(c for i, c in enumerate(line.split(",")) if i != col) for line in path.read_text().splitlines()]
+
+
+def test_ray_sweep_writes_the_serial_csv_on_the_quick_grid(tmp_path):
+    ray = pytest.importorskip("ray")
+    serial = A.sweep(quick=True, log=lambda *_: None)
+    ray.init(num_cpus=2, object_store_memory=100 * 1024 * 1024, include_dashboard=False)
+    try:
+        tasks = A.sweep(quick=True, log=lambda *_: None, ray=True)
+    finally:
+        ray.shutdown()
+    assert len(serial) == len(tasks) > 50
+    assert _csv_without_wall_times(tasks, tmp_path / "ray.csv") == _csv_without_wall_times(
+        serial, tmp_path / "serial.csv"
+    )
+    assert all(r["wall_per_sim_s"] > 0 for r in tasks if not r["diverged"])
