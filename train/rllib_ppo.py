@@ -11,9 +11,10 @@ RLlib's env runners build the env through its vector entry point:
 call, as SB3's adapter does. The settings mirror train_ppo.py's defaults: 16 worlds x 256 steps
 per update (4,096), minibatches of 1,024, 10 epochs, Adam 1e-3 decayed linearly to 0, gamma 0.98,
 GAE lambda 0.95, clip 0.2, separate 128-128 tanh policy and value networks with a state-independent
-log std, value loss weight 0.5, gradient norm clipped at 0.5, no KL term. Differences: observations
-are normalised by RLlib's MeanStdFilter (SB3: VecNormalize), rewards are not normalised, and the
-value loss is not clipped.
+log std, value loss weight 0.5, no KL term. Differences: observations are normalised by RLlib's
+MeanStdFilter (SB3: VecNormalize), rewards are not normalised, the value loss is not clipped, and
+gradients are not clipped (RLlib's default; SB3 clips their norm at 0.5, which on these
+unnormalised returns slows RLlib's PPO down: ``--grad-clip 0.5``, docs/sweeps.md).
 
 The trained policy (its mean action) is then scored exactly as train_ppo.py scores SB3's: 100
 episodes on the same held-out seeds, next to a random policy on those seeds. The run folder
@@ -79,7 +80,7 @@ def build_config(args: argparse.Namespace, env_kwargs: dict[str, Any]):
             vf_loss_coeff=0.5,
             vf_clip_param=float("inf"),
             use_kl_loss=False,
-            grad_clip=0.5,
+            grad_clip=args.grad_clip if args.grad_clip > 0 else None,
             grad_clip_by="global_norm",
         )
         .rl_module(
@@ -154,6 +155,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--clip-range", type=float, default=0.2, help="PPO clip (default: %(default)s)")
     p.add_argument("--ent-coef", type=float, default=0.0, help="entropy bonus (default: %(default)s)")
     p.add_argument("--net-arch", default="128,128", help="hidden layer sizes (default: %(default)s)")
+    p.add_argument(
+        "--grad-clip",
+        type=float,
+        default=0.0,
+        help="global gradient norm clip, 0: none (default: 0, RLlib's; SB3 clips at 0.5, on normalised rewards)",
+    )
     p.add_argument("--no-obs-filter", dest="obs_filter", action="store_false", help="no MeanStdFilter")
     p.add_argument("--final-episodes", type=int, default=100, help="held-out episodes (default: %(default)s)")
     p.add_argument("--threads", type=int, default=1, help="torch threads (default: %(default)s)")
@@ -187,13 +194,14 @@ def main(argv=None) -> dict[str, Any]:
     torch.set_num_threads(args.threads)
     started = not ray.is_initialized()
     if started:
-        local = args.address is None and not os.environ.get("RAY_ADDRESS")
+        address = args.address
         kwargs: dict[str, Any] = {"include_dashboard": False}
-        if local:
+        if address is None and not os.environ.get("RAY_ADDRESS"):
+            address = "local"  # a new local cluster, even where `ray start` left one running
             kwargs["num_cpus"] = args.num_cpus
             if args.object_store_mb:
                 kwargs["object_store_memory"] = args.object_store_mb * 1024 * 1024
-        ray.init(address=args.address, **kwargs)
+        ray.init(address=address, **kwargs)
     try:
         register_env(ENV_NAME, make_vector_env)
         t_build = time.perf_counter()
@@ -253,6 +261,7 @@ def main(argv=None) -> dict[str, Any]:
         "num_env_runners": args.num_env_runners,
         "num_envs": args.num_envs,
         "obs_filter": args.obs_filter,
+        "grad_clip": args.grad_clip,
         "iterations": len(rows),
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2))

@@ -345,9 +345,10 @@ def _ray_init(address: str | None, num_cpus: int | None, object_store_mb: int | 
         return False
     env_vars = {KILL_ONCE_ENV: os.environ[KILL_ONCE_ENV]} if os.environ.get(KILL_ONCE_ENV) else {}
     runtime_env = {"working_dir": str(TRAIN_DIR), "excludes": ["__pycache__"], "env_vars": env_vars}
-    local = address is None and not os.environ.get("RAY_ADDRESS")
     kwargs: dict[str, Any] = {"runtime_env": runtime_env, "include_dashboard": False}
-    if local:
+    if address is None and not os.environ.get("RAY_ADDRESS"):
+        # "local": a new local cluster, even where `ray start` left one running on this machine
+        address = "local"
         kwargs["num_cpus"] = num_cpus
         if object_store_mb:
             kwargs["object_store_memory"] = object_store_mb * 1024 * 1024

@@ -264,7 +264,9 @@ def _ray_measures(todo: list[Cell], address=None):
 
     started = not ray.is_initialized()
     if started:
-        ray.init(address=address)
+        if address is None and not os.environ.get("RAY_ADDRESS"):
+            address = "local"  # a new local cluster, even where `ray start` left one running
+        ray.init(address=address, include_dashboard=False)
     try:
         cell_task = ray.remote(num_cpus=1)(_cell_task)
         ref_task = ray.remote(num_cpus=1)(_reference_task)

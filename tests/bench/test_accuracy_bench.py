@@ -141,7 +141,7 @@ def _csv_without_wall_times(rows, path):
 def test_ray_sweep_writes_the_serial_csv_on_the_quick_grid(tmp_path):
     ray = pytest.importorskip("ray")
     serial = A.sweep(quick=True, log=lambda *_: None)
-    ray.init(num_cpus=2, object_store_memory=100 * 1024 * 1024, include_dashboard=False)
+    ray.init(address="local", num_cpus=2, object_store_memory=100 * 1024 * 1024, include_dashboard=False)
     try:
         tasks = A.sweep(quick=True, log=lambda *_: None, ray=True)
     finally:
