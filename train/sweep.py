@@ -699,7 +699,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.resume is not None:
             if not (args.resume / "sweep.json").exists():
                 raise ValueError(f"--resume {str(args.resume)!r}: no sweep.json there (not a sweep's --out folder)")
-            return 1 if run_sweep({}, args.resume, address=args.address, resume=True) else 0
+            missing = run_sweep({}, args.resume, None, args.address, args.num_cpus, args.object_store_mb, resume=True)
+            return 1 if missing else 0
         spec = check_spec(spec_from_args(args))
         configs = configurations(spec)
         if args.dry_run:
