@@ -58,6 +58,18 @@ def _sweep_args(out: Path, *extra: str) -> list[str]:
     return args
 
 
+def _alive(pid: int) -> bool:
+    """A running process (a zombie, dead but not yet reaped, counts as gone)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:
+        return " Z " not in Path(f"/proc/{pid}/stat").read_text().split(")", 1)[1][:3]
+    except OSError:
+        return False
+
+
 def _without_timings(summary: dict) -> dict:
     s = {k: v for k, v in summary.items() if k not in ("wall_time_s", "env_steps_per_s")}
     s["curve"] = [{k: v for k, v in c.items() if k != "wall_time_s"} for c in summary["curve"]]
@@ -129,8 +141,7 @@ def test_a_killed_trial_is_retried_and_completes(swept):
     killed_pid = int(marker.read_text())
     attempts = [int(p) for p in (kill / "c0_default_seed1.attempts").read_text().split()]
     assert len(attempts) == 2 and attempts[0] == killed_pid and attempts[1] != killed_pid, attempts
-    with pytest.raises(ProcessLookupError):
-        os.kill(killed_pid, 0)  # the first worker is gone
+    assert not _alive(killed_pid)  # the first worker is gone
     assert not (kill / "c0_default_seed0.attempts").exists()  # the other trial was left alone
     assert "ActorDiedError" in swept["log"]  # Tune saw the worker die ...
     assert (swept["out"] / "runs" / "c0_default_seed1" / "summary.json").exists()  # ... and the retry finished
