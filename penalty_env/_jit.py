@@ -15,6 +15,9 @@ which cost ~100 ns per pair check (measured) and contends between threads.
 ``fastmath`` is deliberately not used: it lets LLVM assume no NaN/inf, which would delete the
 ``np.isfinite`` guards the kernels rely on to report a blown-up simulation.
 
+Stale caches: an index written by an older version of the package that names a class which no
+longer exists is treated as a cache miss (recompiled), not an error (``_tolerate_stale_cache_indexes``).
+
 Threading layer: the large-world kernels run in parallel through Numba's threading layer. Its
 default on Linux is GNU OpenMP where it is installed, and GNU OpenMP does not survive ``fork``: a
 forked child that runs a parallel kernel after its parent did is killed ("fork() called from a
@@ -28,6 +31,7 @@ layer: every parallel kernel splits its work by a fixed rule, not by the schedul
 from __future__ import annotations
 
 import os
+import pickle
 import tempfile
 import warnings
 
@@ -78,6 +82,32 @@ def _choose_threading_layer() -> None:
 
 
 _choose_threading_layer()
+
+
+def _tolerate_stale_cache_indexes() -> None:
+    """Treat a Numba cache index that cannot be unpickled as empty (a cache miss), instead of
+    crashing the first call. An index pickles the argument types of every compiled signature; one
+    written by an older version of this package may name a class that no longer exists (the cache
+    survives a ``pip install --upgrade``: pip removes only the files it installed), and Numba
+    unpickles the index before it checks that the source is unchanged. Numba then recompiles and
+    overwrites the index, as for any stale cache. Applies to every Numba cache of the process."""
+    from numba.core import caching
+
+    original = caching.IndexDataCacheFile._load_index
+    if getattr(original, "_penalty_env_tolerant", False):
+        return
+
+    def _load_index(self):
+        try:
+            return original(self)
+        except (AttributeError, ImportError, EOFError, TypeError, ValueError, pickle.UnpicklingError):
+            return {}
+
+    _load_index._penalty_env_tolerant = True  # type: ignore[attr-defined]
+    caching.IndexDataCacheFile._load_index = _load_index
+
+
+_tolerate_stale_cache_indexes()
 
 
 def njit(*args, **kwargs):

@@ -371,7 +371,8 @@ ENERGY_PHASES = 512  # phases of the switch within the step that the mean is tak
 def _collision_gains(integrator: str, h: np.ndarray, c: float, clip: bool, phases: int) -> np.ndarray:
     """e_num^2 - 1 of a ball hitting a wall head on, shape (len(h), phases): every omega0 dt in ``h``
     (units omega0 = 1, approach speed 1, 2 zeta = c) at every phase of the contact's start within
-    the step; inf where the contact never ended."""
+    the step; where the contact never ended (overdamped), the energy it kept less 1 if that is not
+    a gain, else inf."""
     h = np.asarray(h, dtype=np.float64)[:, None]
     ph = (np.arange(phases) + 0.5) / phases
     q = h * ph[None, :]  # the gap (< 0 in contact)
@@ -415,7 +416,10 @@ def _collision_gains(integrator: str, h: np.ndarray, c: float, clip: bool, phase
             break
     with np.errstate(over="ignore", invalid="ignore"):
         gain = u * u - 1.0
-    return np.where((clear >= 2) & np.isfinite(gain), gain, np.inf)
+        # a contact still on at the end (overdamped, zeta >= 1: the ball settles against the wall)
+        # has gained nothing: its energy, kinetic plus spring, is what it kept
+        kept = u * u + q * q - 1.0
+    return np.where(clear >= 2, gain, np.where(np.isfinite(kept) & (kept <= 0.0), kept, np.inf))
 
 
 def energy_gain_per_collision(
@@ -424,7 +428,8 @@ def energy_gain_per_collision(
     """(mean, standard deviation) over where the contact starts within the step of e_num^2 - 1:
     the relative change of the normal kinetic energy over one collision of a linear spring-dashpot
     contact, integrated by ``integrator`` at ``omega_dt`` (0 for the exact elastic contact; about
-    e^2 - 1 < 0 with damping; inf if the contact never ends). Each method is applied exactly as the
+    e^2 - 1 < 0 with damping; the energy kept less 1 for an overdamped contact that never ends; inf
+    if it grows without ending). Each method is applied exactly as the
     World applies it (the dashpot explicit, velocity Verlet's at the predicted velocity, implicit
     Euler's contact set frozen at the start of the step), to a ball hitting a wall head on, gravity
     off. The mean oscillates with omega_dt (it nearly vanishes where a contact lasts a whole number

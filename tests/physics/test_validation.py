@@ -212,3 +212,47 @@ def test_set_state_refuses_a_boolean_mask_for_worlds():
     w = World(np.zeros((2, 1, 3)), [0.1], [1.0], ks=1e3, dt=1e-3)
     with pytest.raises(ValueError, match="worlds"):
         w.set_state(positions=np.zeros((1, 1, 3)), worlds=np.array([True, False]))
+
+
+def test_a_stale_numba_cache_index_naming_a_vanished_class_is_a_cache_miss_not_a_crash(tmp_path):
+    """An index written by an older version may pickle a class the package no longer has (the cache
+    survives an upgrade); the first call must recompile, not raise."""
+    import pickle
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent(
+        """
+        import numba, pickle, types, sys, os
+        sys.path.insert(0, os.environ["MOD_DIR"])
+        import penalty_env  # noqa: F401  (installs the tolerant index loader)
+        import penalty_env._jit  # noqa: F401
+        import stale_mod
+        print(stale_mod.f(2.0))
+        """
+    )
+    mod = tmp_path / "stale_mod.py"
+    mod.write_text("import numba\n@numba.njit(cache=True)\ndef f(x):\n    return x + 1.0\n")
+    env = dict(__import__("os").environ, MOD_DIR=str(tmp_path), NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    first = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert first.stdout.strip() == "3.0"
+    # corrupt the index as an older version would leave it: a key naming a class that is gone
+    (index,) = list((tmp_path / "cache").rglob("*.nbi"))
+    with open(index, "rb") as f:
+        version = pickle.load(f)
+    gone = type("Gone", (), {"__module__": "penalty_env.physics.geometry"})
+    gone.__qualname__ = "UnionNodeThatIsGone"
+    import penalty_env.physics.geometry as geometry
+
+    geometry.UnionNodeThatIsGone = gone  # type: ignore[attr-defined]
+    try:
+        payload = pickle.dumps((("stamp",), {gone(): "x"}))
+    finally:
+        delattr(geometry, "UnionNodeThatIsGone")
+    with open(index, "wb") as f:
+        pickle.dump(version, f)
+        f.write(payload)
+    again = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert again.returncode == 0, again.stderr[-2000:]
+    assert again.stdout.strip() == "3.0"
