@@ -9,6 +9,7 @@ Layout (one module per concern):
 ``world``                 the public ``World``: validation, the stability guard, state and stepping
 ``model``                 ``Model`` (the static scene, every contact parameter) and ``State``
 ``shapes``                terrain shapes (signed distance functions); ``implicit``: shape-shape overlap
+``geometry``              the shapes' kernel side: phi per kind, CSG trees, poses, the terrain loop
 ``contact``               the contact laws and their shared helpers (the reference implementation)
 ``contact_lanes``         the laws' SIMD-across-worlds twin; ``lanes``: that stepping path
 ``contact_listed``        the pair law's neighbour-list twin; ``neighbour_list``: that path
@@ -24,7 +25,24 @@ Layout (one module per concern):
 from . import theory
 from .implicit import ImplicitOverlap, implicit_overlap
 from .model import Model, State
-from .shapes import Bowl, Shape, Sphere
+from .shapes import (
+    SDF,
+    Bowl,
+    Box,
+    Capsule,
+    Cone,
+    Cylinder,
+    Difference,
+    HeightField,
+    Inside,
+    Intersection,
+    Plane,
+    Shape,
+    Sphere,
+    Torus,
+    Union,
+    rotation_matrix,
+)
 from .world import EnergyDriftWarning, StartOverlapWarning, World
 
 __all__ = [
@@ -33,9 +51,22 @@ __all__ = [
     "StartOverlapWarning",
     "Model",
     "State",
-    "Bowl",
-    "Sphere",
     "Shape",
+    "Sphere",
+    "Bowl",
+    "Plane",
+    "Box",
+    "Capsule",
+    "Cylinder",
+    "Cone",
+    "Torus",
+    "HeightField",
+    "Union",
+    "Intersection",
+    "Difference",
+    "Inside",
+    "SDF",
+    "rotation_matrix",
     "theory",
     "implicit_overlap",
     "ImplicitOverlap",

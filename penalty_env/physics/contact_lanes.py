@@ -12,11 +12,14 @@ them is :mod:`.lanes`.
 from __future__ import annotations
 
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from .._jit import njit
-from .contact import shape_sign
+from .contact import FORCE, shape_sign
+from .geometry import general_terrain, model_geometry_type
 
-__all__ = ["pair_contact_lanes", "terrain_contact_lanes"]
+__all__ = ["pair_contact_lanes", "terrain_contact_lanes", "general_terrain_lanes"]
 
 
 @njit(inline="always")
@@ -128,3 +131,60 @@ def terrain_contact_lanes(i, X, V, A, F, W, model, friction, g):
         for k in range(D):
             for w in range(W):
                 A[i, k, w] += F[k, w]
+
+
+def lane_world(ids, c0, w):
+    """The world in lane w: ``c0 + w`` for a contiguous block (``ids`` None), ``ids[w]`` for a
+    listed one (jitted code only; resolved by the type of ``ids``)."""
+    raise NotImplementedError
+
+
+@overload(lane_world, inline="always")
+def _lane_world(ids, c0, w):
+    if isinstance(ids, (types.NoneType, types.Omitted)):
+        return lambda ids, c0, w: c0 + w
+    return lambda ids, c0, w: ids[w]
+
+
+def general_terrain_lanes(i, X, V, A, W, ids, c0, model, friction, g):
+    """Every general shape (:mod:`.geometry`) against sphere i in every lane (lane w is world
+    ``ids[w]``, or ``c0 + w``): the reference's own :func:`.geometry.general_terrain`, one lane at a
+    time (the shapes' code branches too much to vectorise), so bit for bit the scalar path's.
+    Compiled away when the model has no general shapes (jitted code only)."""
+    raise NotImplementedError
+
+
+@overload(general_terrain_lanes, inline="always")
+def _general_terrain_lanes(i, X, V, A, W, ids, c0, model, friction, g):
+    if isinstance(model_geometry_type(model), types.NoneType):
+        return lambda i, X, V, A, W, ids, c0, model, friction, g: None
+
+    def impl(i, X, V, A, W, ids, c0, model, friction, g):
+        D = len(g)
+        r = model.radii[i]
+        for w in range(W):
+            b = lane_world(ids, c0, w)
+            val, f0, f1, f2 = general_terrain(
+                FORCE,
+                model.geometry,
+                b,
+                X[i, 0, w],
+                X[i, 1, w],
+                X[i, 2, w] if D == 3 else 0.0,
+                V[i, 0, w],
+                V[i, 1, w],
+                V[i, 2, w] if D == 3 else 0.0,
+                r,
+                0.0,
+                model.ks_terrain,
+                model.kd_terrain,
+                model.no_tension,
+                friction,
+                D,
+            )
+            A[i, 0, w] += f0
+            A[i, 1, w] += f1
+            if D == 3:
+                A[i, 2, w] += f2
+
+    return impl

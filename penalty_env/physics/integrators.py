@@ -39,6 +39,7 @@ from numba.extending import overload
 from .._jit import njit
 from .broadphase import build_grid, contact_forces, contacts
 from .contact import DIAG, LINEAR
+from .geometry import advance_geometry
 
 __all__ = [
     "INTEGRATORS",
@@ -437,6 +438,7 @@ def run_worlds(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, st
         ok = True
         for _ in range(nsteps):
             ok = integrate(work, b, dt, x, v, ext, grid, model, friction, g)
+            advance_geometry(model, b, dt, len(g))  # kinematic shapes move on (nothing if none)
             if not ok:
                 break
         status[b] = world_status(work, b, ok, x, v, g)

@@ -15,7 +15,8 @@ symplectic or explicit Euler, and by the environments' fused step.
 from __future__ import annotations
 
 from .._jit import njit
-from .contact_lanes import pair_contact_lanes, terrain_contact_lanes
+from .contact_lanes import general_terrain_lanes, pair_contact_lanes, terrain_contact_lanes
+from .geometry import advance_geometry
 from .integrators import STATUS_OK, final_status
 
 __all__ = ["LANES", "LANES_MAX_BALLS", "LANES_MIN_WORLDS", "lanes_step", "load_block", "store_block", "run_lanes"]
@@ -34,8 +35,15 @@ LANES = 64
 
 
 @njit(inline="always")
-def lanes_step(symplectic, dt, X, V, A, E, F, W, model, friction, g):
-    """One symplectic (or explicit) Euler step of the W worlds of a block, all pairs."""
+def _world(ids, c0, w):
+    """The world in lane w: ``c0 + w`` for a contiguous block, ``ids[w]`` for a listed one."""
+    return c0 + w if ids is None else ids[w]
+
+
+@njit(inline="always")
+def lanes_step(symplectic, dt, X, V, A, E, F, W, ids, c0, model, friction, g):
+    """One symplectic (or explicit) Euler step of the W worlds of a block (lane w holds world
+    ``_world(ids, c0, w)``), all pairs; kinematic shapes move on after it."""
     D = len(g)
     n = X.shape[0]
     for i in range(n):
@@ -46,6 +54,7 @@ def lanes_step(symplectic, dt, X, V, A, E, F, W, model, friction, g):
         for j in range(i + 1, n):
             pair_contact_lanes(i, j, X, V, A, F, W, model, friction, g)
         terrain_contact_lanes(i, X, V, A, F, W, model, friction, g)
+        general_terrain_lanes(i, X, V, A, W, ids, c0, model, friction, g)
     for i in range(n):
         im = model.inv_mass[i]
         for k in range(D):
@@ -61,12 +70,8 @@ def lanes_step(symplectic, dt, X, V, A, E, F, W, model, friction, g):
                 else:
                     X[i, k, w] += dt * V[i, k, w]
                     V[i, k, w] += dt * ak
-
-
-@njit(inline="always")
-def _world(ids, c0, w):
-    """The world in lane w: ``c0 + w`` for a contiguous block, ``ids[w]`` for a listed one."""
-    return c0 + w if ids is None else ids[w]
+    for w in range(W):
+        advance_geometry(model, _world(ids, c0, w), dt, D)
 
 
 @njit(inline="always")
@@ -115,7 +120,7 @@ def run_lanes(symplectic, b0, b1, nsteps, dt, x, v, scratch, ext, model, frictio
             load_block(None, c0, W, ext, ext, E, E)
         for _ in range(nsteps):
             if ext is not None:
-                lanes_step(symplectic, dt, X, V, A, E, F, W, model, friction, g)
+                lanes_step(symplectic, dt, X, V, A, E, F, W, None, c0, model, friction, g)
             else:
-                lanes_step(symplectic, dt, X, V, A, None, F, W, model, friction, g)
+                lanes_step(symplectic, dt, X, V, A, None, F, W, None, c0, model, friction, g)
         store_block(None, c0, W, x, v, X, V, status, g)

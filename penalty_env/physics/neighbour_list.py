@@ -16,12 +16,16 @@ from collections import namedtuple
 from typing import Any
 
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from .._jit import njit, prange
 from .broadphase import build_grid, neighbour_rows, new_grid
-from .contact import FORCE, pair_contact, shape_dist2, terrain_contact
+from .contact import FORCE, general_terrain_row, pair_contact, shape_dist2, terrain_contact
 from .contact_listed import pair_contact_listed
+from .geometry import advance_geometry, geometry_clearance, model_geometry_type, world_slice
 from .integrators import STATUS_OK, final_status
+from .model import SlimModel
 
 __all__ = [
     "LargeWorld",
@@ -62,7 +66,7 @@ LargeWorld = namedtuple(
         "tmp",  # (n, max(D, 2)) float scratch
         "nbr",  # (n, cap) int32 storage slots of each ball's listed neighbours, in grid order
         "count",  # (n,) int32 listed neighbours per ball
-        "near",  # (n,) int8: 1 if the ball was within a skin of a terrain shape at the build
+        "near",  # (n,) int8: bit 1 if the ball was within a skin of a static sphere or bowl at the build, bit 2 of a general shape
         "xref",  # (n, D) positions at the last build
         "escaped",  # (n,) int8: 1 once the slot has moved skin / 2 from xref
         "escapes",  # (max_escapes,) the escaped slots, in the order they escaped
@@ -125,6 +129,55 @@ def _near_terrain(i, xs, sm, reach, D):
         if not sign * (np.sqrt(dist2) - sm.shape_radius[s]) - r >= reach:
             return 1
     return 0
+
+
+# General shapes (:mod:`.geometry`) cannot enter the parallel passes: Numba's parallel loops take a
+# tuple argument only one level deep, and a Geometry is a tuple of tuples. So ``run_large`` keeps
+# them out of its parallel passes (``sm`` there is the Model without them) and handles them in the
+# two serial passes below, with ``full`` (the Model with them). Without general shapes both passes
+# compile to nothing.
+
+
+def _general_near(full, lw, xs, g):
+    """Flag (bit 2 of ``near``) every ball within a skin of a general shape at the build (jitted code only)."""
+    raise NotImplementedError
+
+
+@overload(_general_near)
+def _general_near_impl(full, lw, xs, g):
+    if isinstance(model_geometry_type(full), types.NoneType):
+        return lambda full, lw, xs, g: None
+
+    def impl(full, lw, xs, g):
+        D = len(g)
+        near = lw.near
+        for i in range(xs.shape[1]):
+            p2 = xs[0, i, 2] if D == 3 else 0.0
+            # phi is 1-Lipschitz for exact shapes and CSG trees; moving shapes, height fields and
+            # user SDFs give -inf: their balls are tested at every step
+            if not geometry_clearance(full, 0, xs[0, i, 0], xs[0, i, 1], p2, D) - full.radii[i] >= lw.skin:
+                near[i] |= 2
+
+    return impl
+
+
+def _general_forces(full, xs, vs, a, friction, g, near, escaped, ne):
+    """The general shapes' forces on the balls flagged near them and on the escaped ones (serial;
+    jitted code only)."""
+    raise NotImplementedError
+
+
+@overload(_general_forces)
+def _general_forces_impl(full, xs, vs, a, friction, g, near, escaped, ne):
+    if isinstance(model_geometry_type(full), types.NoneType):
+        return lambda full, xs, vs, a, friction, g, near, escaped, ne: None
+
+    def impl(full, xs, vs, a, friction, g, near, escaped, ne):
+        for i in range(xs.shape[1]):
+            if (near[i] & 2) != 0 or (ne > 0 and escaped[i] != 0):
+                general_terrain_row(FORCE, 0, i, xs, vs, a, 0.0, full, friction, g, 0.0)
+
+    return impl
 
 
 @njit(parallel=True)
@@ -212,12 +265,12 @@ def _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, es
         escaped_i = ne > 0 and escaped[i] != 0
         if not escaped_i:
             pair_contact_listed(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne)
-        if escaped_i or near[i] != 0:
+        if escaped_i or (near[i] & 1) != 0:
             terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
 
 
 @njit(parallel=True)
-def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads):
+def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads, full):
     """Symplectic or explicit Euler for a world too large to run one per thread. Returns the number
     of steps taken: fewer than ``nsteps`` when the world blew up (``status``) or when a ball has more
     neighbours than the list holds (``lw.state[1]`` says how many; the caller grows it and goes on).
@@ -248,7 +301,9 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
     on the state, so splitting the steps over calls changes nothing. ``x``, ``v``, ``ext``,
     ``status`` are the world's own ``(1, n, D)`` / ``(1,)`` slices, in ball order: gathered into
     storage order on entry, scattered back on exit. ``sm`` is a Model
-    whose radii / inv_mass arrays are the world's own, permuted with the storage. ``threads``: how
+    whose radii / inv_mass arrays are the world's own, permuted with the storage, without general
+    shapes; ``full`` is the same with them (or ``sm`` itself when there are none): the general
+    shapes run in two serial passes (:func:`_general_near`, :func:`_general_forces`). ``threads``: how
     many ways to split the slabs (the thread count, at most ``len(lw.moved)``; the result does not
     depend on it).
     """
@@ -296,6 +351,7 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
                 perm[i] = lw.itmp[i]
                 escaped[i] = 0
             most = _build_list(grid, xs, sm, lw, g)
+            _general_near(full, lw, xs, g)
             lw.state[1] = most
             lw.state[2] += 1
             lw.state[3] = 0
@@ -310,6 +366,7 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
         # What a ball receives, and in which order, depends on the slabs, never on the threads.
         if ne > 0:
             _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne)
+        _general_forces(full, xs, vs, a, friction, g, near, escaped, ne)
         # cells in one layer along the last axis (not "layer = 1; layer *= ...": the literal 1 typed
         # one of the two passes' calls of _slab_forces apart, and compiled it twice)
         layer = grid.dims[0, 0] * grid.dims[0, 1] if D == 3 else grid.dims[0, 0]
@@ -352,6 +409,7 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
             if ne > escapes.shape[0]:
                 lw.state[0] = 0
         lw.state[3] = ne
+        advance_geometry(full, 0, dt, D)  # kinematic shapes move on (nothing if none)
     for i in prange(n):
         u = perm[i]
         for k in range(D):
@@ -364,8 +422,10 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
 class NeighbourLists:
     """One neighbour list (:data:`LargeWorld`) per world of a batch, and its stepping.
 
-    ``model`` is the World's :class:`~.model.Model`; each world gets a copy whose radii and inverse
-    masses follow its storage order, and whose cell size is wide enough for the list's reach.
+    ``model`` is the World's :class:`~.model.Model`; each world gets a :class:`~.model.SlimModel` of
+    it whose radii and inverse masses follow its storage order, and whose cell size is wide enough
+    for the list's reach (and, with general shapes, a full Model sharing those arrays for the
+    serial passes).
     """
 
     def __init__(self, model: Any, B: int, n: int, d: int, threads: int) -> None:
@@ -375,15 +435,16 @@ class NeighbourLists:
         self.inv_mass = np.array(model.inv_mass)
         self.skin = NEIGHBOUR_SKIN * 2.0 * float(self.radii.max())
         self.worlds: list[tuple[LargeWorld, Any]] = []
-        for _ in range(B):
-            self.worlds.append(
-                (
-                    self._new(4 * (d - 1) ** 2 + 5),
-                    model._replace(
-                        radii=self.radii.copy(), inv_mass=self.inv_mass.copy(), cell_size=model.cell_size + self.skin
-                    ),
-                )
+        self.full: list[Any] = []  # per world: its Model with its general shapes (world b's as world 0)
+        for b in range(B):
+            radii, inv_mass = self.radii.copy(), self.inv_mass.copy()  # permuted with the storage
+            cell = model.cell_size + self.skin
+            core = SlimModel.of(model, radii=radii, inv_mass=inv_mass, cell_size=cell)
+            self.worlds.append((self._new(4 * (d - 1) ** 2 + 5), core))
+            full = model._replace(
+                radii=radii, inv_mass=inv_mass, cell_size=cell, geometry=world_slice(model.geometry, b)
             )
+            self.full.append(core if model.geometry is None else full)
         self.reset()
 
     def _new(self, cap: int) -> LargeWorld:
@@ -449,6 +510,7 @@ class NeighbourLists:
                     status[w],
                     lw,
                     self.threads,
+                    self.full[b],
                 )
                 if status[b] != STATUS_OK:
                     break

@@ -19,12 +19,15 @@ from .. import _validate as V
 from . import diagnostics as _diagnostics
 from . import theory
 from .broadphase import GRID_MIN_BALLS, new_grid
+from .geometry import columns as _columns
+from .geometry import evaluate as _evaluate_shapes
+from .geometry import pose_columns
 from .integrators import INTEGRATORS, STATUS_CG, STATUS_NONFINITE, allocate_work
 from .lanes import LANES_MAX_BALLS, LANES_MIN_WORLDS
 from .model import Model, State
 from .neighbour_list import LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN
 from .runner import PATHS, Runner
-from .shapes import Shape, pack_terrain
+from .shapes import SDF, HeightField, Shape, is_static_round, pack_geometry, pack_terrain
 
 __all__ = [
     "World",
@@ -53,6 +56,30 @@ _EULERS = ("symplectic_euler", "explicit_euler")
 MAX_STEPS_PER_CALL = 2**62  # ``step(n)``: the kernels count steps in int64
 
 
+def _probe_user(shape: Shape, x: np.ndarray) -> None:
+    """Refuse a user SDF that is not finite where the balls start or on a
+    lattice over their bounding box grown by twice its size (at least 2 either side) each way."""
+    lo, hi = x.reshape(-1, x.shape[-1]).min(0), x.reshape(-1, x.shape[-1]).max(0)
+    span = np.maximum(hi - lo, 1.0)
+    axes = [np.linspace(lo[k] - 2.0 * span[k], hi[k] + 2.0 * span[k], 7) for k in range(x.shape[-1])]
+    lattice = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, x.shape[-1])
+    points = np.concatenate([x.reshape(-1, x.shape[-1])[:4096], lattice])
+    assert isinstance(shape, SDF)
+    shape.probe(points)
+
+
+def _per_world(name: str, value: Any, shape: tuple[int, ...], count: int) -> np.ndarray:
+    """``value`` of ``shape``, or one per world (``(count,) + shape``); finite."""
+    arr = V.real_array(name, value)
+    if arr.shape == (1,) and shape == ():
+        arr = arr.reshape(())
+    if arr.shape != shape and arr.shape != (count,) + shape:
+        raise ValueError(
+            f"{name} must have shape {shape} (all chosen worlds) or {(count,) + shape} (one per world), got {arr.shape}"
+        )
+    return arr
+
+
 class StartOverlapWarning(RuntimeWarning):
     """A state in which two balls, or a ball and the terrain, overlap by the smaller radius or more:
     the spring stores more energy than the contact model resolves (it launches the balls fast
@@ -72,7 +99,12 @@ class World:
         positions: ``(n, d)`` or ``(B, n, d)`` ball centres, d = 2 or 3; B independent worlds.
         radii, masses: ``(n,)``, shared by the B worlds; > 0.
         velocities: same shape as ``positions``; zeros when None.
-        terrain: static :class:`Sphere` / :class:`Bowl` shapes (a single shape is accepted too).
+        terrain: the shapes (:mod:`penalty_env.physics.shapes`: spheres, bowls, planes, boxes,
+            capsules, cylinders, cones, tori, height fields, CSG, a user's SDF; a single shape is
+            accepted too). Static spheres and bowls run in the core's original code; the other
+            shapes compile into the step by kind (a scene pays for the kinds it has). Kinematic
+            shapes (given a velocity or angular velocity) move on every step, and
+            :meth:`set_shape_pose` moves any shape between steps.
         gravity: length-d acceleration; default ``-9.81`` along the last axis.
         ks, kd: sphere-sphere penalty spring (force/length, > 0) and dashpot (force/speed, >= 0).
         ks_terrain, kd_terrain: sphere-terrain spring and dashpot; default ``ks``, ``kd``.
@@ -156,9 +188,27 @@ class World:
         if isinstance(terrain, Shape):
             terrain = (terrain,)
         if terrain is None or isinstance(terrain, (str, bytes)) or not hasattr(terrain, "__iter__"):
-            raise ValueError(f"terrain must be a Sphere, a Bowl or a sequence of them, got {V.describe(terrain)}")
+            raise ValueError(
+                f"terrain must be a Shape (Sphere, Bowl, Plane, Box, ..., from penalty_env.physics) or a sequence "
+                f"of shapes, got {V.describe(terrain)}"
+            )
         self.terrain = tuple(terrain)
-        kind, center, radius = pack_terrain(self.terrain, d)
+        for k, shape in enumerate(self.terrain):
+            if not isinstance(shape, Shape):
+                raise V.ArgumentTypeError(f"terrain[{k}] must be a Shape, got {V.describe(shape)}")
+            if shape.dim != d:
+                raise ValueError(f"terrain[{k}] is {shape.dim}D but positions are {d}D")
+        # static spheres and bowls: the original kernel code; every other shape: the Geometry
+        legacy = [k for k, shape in enumerate(self.terrain) if is_static_round(shape)]
+        general = [k for k in range(len(self.terrain)) if k not in legacy]
+        kind, center, radius = pack_terrain([self.terrain[k] for k in legacy], d)
+        geometry, where = pack_geometry([self.terrain[k] for k in general], B, d)
+        # terrain[k] -> ("legacy", index) or (geometry group, index within it)
+        self._shape_slot: dict[int, tuple[str, int]] = {k: ("legacy", j) for j, k in enumerate(legacy)}
+        self._shape_slot.update({k: where[j] for j, k in enumerate(general)})
+        for shape in self.terrain:
+            if isinstance(shape, SDF):
+                _probe_user(shape, x)
 
         if gravity is None:
             gravity = (0.0,) * (d - 1) + (-9.81,)
@@ -218,6 +268,7 @@ class World:
             mu=self.mu,
             kf=self.kf,
             gravity_vector=np.array(self.gravity),
+            geometry=geometry,
         )
         # buffers, allocated once: nothing is allocated while stepping
         self._state = State(x, v)
@@ -250,6 +301,12 @@ class World:
     def _stepping_path(self, stepping: str, B: int, n: int) -> str:
         """The stepping path: the one asked for (refused where it does not apply) or, for ``auto``,
         the fastest that applies (measured crossovers: ``python -m penalty_env.bench core``)."""
+        if self.events and any(slot[0] != "legacy" for slot in self._shape_slot.values()):
+            raise ValueError(
+                "events=True locates contact switches of spheres and bowls only; this terrain has "
+                f"{', '.join(sorted({type(t).__name__ for t in self.terrain if not is_static_round(t)}))}: "
+                "use events=False (and a smaller dt for the same accuracy)"
+            )
         euler = self.integrator in _EULERS
         if stepping == "auto":
             if self.events:
@@ -481,6 +538,178 @@ class World:
             self._check_start(chosen.astype(np.int64))
         self._runner.forget(idx)
 
+    # ---------------------------------------------------------------- terrain poses
+    def _slot(self, shape: Any) -> tuple[int, str, int]:
+        k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
+        name, j = self._shape_slot[k]
+        if name == "legacy":
+            raise ValueError(
+                f"terrain[{k}] is a static {type(self.terrain[k]).__name__}: static spheres and bowls run in the "
+                f"core's original code, shared by every world, and cannot move; give it velocity=(0.0,) * d at "
+                f"construction to make it kinematic"
+            )
+        return k, name, j
+
+    def _pose_rows(self, name: str, j: int) -> np.ndarray:
+        """The (B, P) pose rows of a general shape (a view into the model's arrays)."""
+        grp = getattr(self._model.geometry, name)
+        return grp[j].pose if name == "user" else grp.pose[:, j]
+
+    def shape_pose(self, shape: int, world: int = 0) -> dict[str, np.ndarray]:
+        """The current pose of ``terrain[shape]`` in one world: ``position`` (its centre), ``rotation``,
+        ``velocity`` and ``angular_velocity`` (3 components in 3D, 1 in 2D). Static spheres and
+        bowls report their fixed pose."""
+        k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
+        b = V.integer("world", world, 0, self.n_worlds - 1)
+        d = self.dim
+        if self._shape_slot[k][0] == "legacy":
+            t = self.terrain[k]
+            return {
+                "position": np.array(t.center),
+                "rotation": np.eye(d),
+                "velocity": np.zeros(d),
+                "angular_velocity": np.zeros(3 if d == 3 else 1),
+            }
+        row = self._pose_rows(*self._shape_slot[k])[b]
+        cols = pose_columns(d)
+        omega = row[cols["angular_velocity"]]
+        return {
+            "position": row[cols["position"]].copy(),
+            "rotation": row[cols["rotation"]].reshape(d, d).copy(),
+            "velocity": row[cols["velocity"]].copy(),
+            "angular_velocity": omega.copy() if d == 3 else omega[2:].copy(),
+        }
+
+    def set_shape_pose(
+        self,
+        shape: int,
+        position: Any = None,
+        rotation: Any = None,
+        velocity: Any = None,
+        angular_velocity: Any = None,
+        worlds: Any = None,
+    ) -> None:
+        """Move ``terrain[shape]`` between steps, in every world or in ``worlds``: its centre, its
+        rotation matrix, and (for a shape made kinematic, with a velocity or angular velocity at
+        construction) the velocity and angular velocity it moves on with in every step. A paddle or
+        a lid a policy moves sets them at every control step. Values are one for all the chosen
+        worlds, or one per world (a leading axis of len(worlds))."""
+        k, name, j = self._slot(shape)
+        d = self.dim
+        idx = self._world_index(worlds)
+        count = self.n_worlds if worlds is None else len(np.atleast_1d(idx))
+        if (velocity is not None or angular_velocity is not None) and self._model.geometry.motion is None:
+            raise ValueError(
+                f"terrain[{k}] was made static (this World compiled no shape motion): give it velocity=(0.0,) * {d} "
+                f"at construction to set its velocity or angular velocity"
+            )
+        rows = self._pose_rows(name, j)
+        cols = pose_columns(d)
+        values = []
+        if position is not None:
+            values.append(("position", _per_world("position", position, (d,), count)))
+        if rotation is not None:
+            R = _per_world("rotation", rotation, (d, d), count)
+            for m in R.reshape(-1, d, d):
+                if np.abs(m.T @ m - np.eye(d)).max() > 1e-9 or np.linalg.det(m) < 0.0:
+                    raise ValueError(
+                        f"rotation must be a rotation matrix ({d}x{d}, orthonormal, det +1), got {m.tolist()}"
+                    )
+            values.append(("rotation", R.reshape(R.shape[:-2] + (d * d,))))
+        if velocity is not None:
+            values.append(("velocity", _per_world("velocity", velocity, (d,), count)))
+        if angular_velocity is not None:
+            w = _per_world("angular_velocity", angular_velocity, (3,) if d == 3 else (1,), count)
+            if d == 2:
+                full = np.zeros(w.shape[:-1] + (3,))
+                full[..., 2] = w[..., 0]
+                w = full
+            values.append(("angular_velocity", w))
+        for column, value in values:  # all checked before any is written
+            if worlds is None:
+                rows[:, cols[column]] = value
+            else:
+                rows[idx, cols[column]] = value
+        self._runner.forget(idx)
+
+    def set_heights(self, shape: int, heights: Any, worlds: Any = None) -> None:
+        """Replace the node heights of the HeightField ``terrain[shape]`` in every world or in
+        ``worlds`` (one grid for all of them, or one per world), between steps. Balls are not moved
+        (see :meth:`set_shape_pose`)."""
+        k, name, j = self._slot(shape)
+        if name != "heights":
+            raise ValueError(f"terrain[{k}] is a {type(self.terrain[k]).__name__}, not a HeightField")
+        hf = self.terrain[k]
+        assert isinstance(hf, HeightField)
+        nx, ny = hf.grid_shape
+        idx = self._world_index(worlds)
+        count = self.n_worlds if worlds is None else len(np.atleast_1d(idx))
+        shape_ = (nx,) if self.dim == 2 else (nx, ny)
+        h = _per_world("heights", heights, shape_, count)
+        grp = self._model.geometry.heights
+        grp.heights[idx, j, :nx, :ny] = h.reshape(h.shape[:-1] + (nx, ny)) if self.dim == 2 else h
+        self._runner.forget(idx)
+
+    def shape_distance(self, shape: int, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """phi and the outward normal of ``terrain[shape]`` at its current pose in one world, at
+        ``points`` (..., d): ``(phi (...), normal (..., d))``."""
+        k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
+        b = V.integer("world", world, 0, self.n_worlds - 1)
+        pts, flat = self._points(points)
+        if self._shape_slot[k][0] == "legacy":
+            phi, normal = self.terrain[k].phi(flat), self.terrain[k].grad_phi(flat)
+        else:
+            ev = self._evaluate_general(b, flat)
+            general = [j for j in range(len(self.terrain)) if self._shape_slot[j][0] != "legacy"]
+            col = dict(zip(general, _columns([self._shape_slot[j] for j in general])))[k]
+            phi, normal = ev[:, col, 0], ev[:, col, 1 : 1 + self.dim]
+        return phi.reshape(pts.shape[:-1]), normal.reshape(pts.shape)
+
+    def _points(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
+        pts = V.real_array("points", points)
+        if pts.shape[-1:] != (self.dim,):
+            raise ValueError(f"points must have last dimension {self.dim}, got shape {pts.shape}")
+        return pts, np.ascontiguousarray(pts.reshape(-1, self.dim))
+
+    def _evaluate_general(self, b: int, flat: np.ndarray) -> np.ndarray:
+        ev = np.zeros((len(flat), sum(1 for n_, _ in self._shape_slot.values() if n_ != "legacy"), 4))
+        _evaluate_shapes(self._model.geometry, b, flat, ev)
+        return ev
+
+    def terrain_distance(self, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """The terrain's signed distance at ``points`` (..., d) in one world, the smallest phi of
+        its shapes at their current poses (the union of their solids), and the outward normal of
+        that shape: ``(phi (...), normal (..., d))``; inf and zeros without terrain."""
+        b = V.integer("world", world, 0, self.n_worlds - 1)
+        pts, flat = self._points(points)
+        d = self.dim
+        phi = np.full(len(flat), np.inf)
+        normal = np.zeros((len(flat), d))
+        for k, shape in enumerate(self.terrain):
+            if self._shape_slot[k][0] == "legacy":
+                p, n = shape.phi(flat), shape.grad_phi(flat)
+                closer = p < phi
+                phi = np.where(closer, p, phi)
+                normal = np.where(closer[:, None], n, normal)
+        if self._model.geometry is not None:
+            ev = self._evaluate_general(b, flat)
+            k = np.argmin(ev[:, :, 0], axis=1)
+            best = ev[np.arange(len(flat)), k]
+            closer = best[:, 0] < phi
+            phi = np.where(closer, best[:, 0], phi)
+            normal = np.where(closer[:, None], best[:, 1 : 1 + d], normal)
+        return phi.reshape(pts.shape[:-1]), normal.reshape(pts.shape)
+
+    def _world_index(self, worlds: Any) -> Any:
+        if worlds is None:
+            return slice(None)
+        if np.asarray(worlds).dtype.kind not in "iu":
+            raise ValueError(f"worlds must be integer world indices, got dtype {np.asarray(worlds).dtype}")
+        chosen = np.atleast_1d(np.asarray(worlds, dtype=np.int64))
+        if chosen.size and (chosen.min() < 0 or chosen.max() >= self.n_worlds):
+            raise ValueError(f"worlds must index 0..{self.n_worlds - 1}, got {worlds!r}")
+        return chosen
+
     def _check_start(self, worlds: np.ndarray) -> None:
         """Warn (:class:`StartOverlapWarning`, with the balls and the figures) about a state in
         which two balls, or a ball and the terrain, overlap by the smaller radius or more: the
@@ -526,8 +755,16 @@ class World:
             if frac[i, j] > best:
                 best, label = float(frac[i, j]), f"balls {i} and {j}"
                 ks, m_eff, rs = self.ks, theory.effective_mass(self.masses[i], self.masses[j]), float(min(r[i], r[j]))
+        geo = self._model.geometry
+        ev = None
+        if geo is not None:  # every general shape at its current pose in world b
+            ev = np.zeros((len(x), sum(1 for n, _ in self._shape_slot.values() if n != "legacy"), 4))
+            _evaluate_shapes(geo, b, np.ascontiguousarray(x), ev)
+        general = [k for k in range(len(self.terrain)) if self._shape_slot[k][0] != "legacy"]
+        column = dict(zip(general, _columns([self._shape_slot[k] for k in general])))
         for s, shape in enumerate(self.terrain):
-            pen = (r - shape.phi(x)) / r
+            phi = shape.phi(x) if s not in column else ev[:, column[s], 0]  # type: ignore[index]
+            pen = (r - phi) / r
             k = int(np.argmax(pen))
             if pen[k] > best:
                 best, label = float(pen[k]), f"ball {k} and terrain shape {s}"

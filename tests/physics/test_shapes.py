@@ -158,3 +158,53 @@ def test_implicit_overlap_rejects_mixed_dimensions_and_bad_sample_counts():
         Bowl((0, 0, 0, 0), 1.0)
     with pytest.raises(ValueError, match="center"):
         Sphere((0, float("nan")), 1.0)
+
+
+# --------------------------------------------------------------------------------------------
+# General shapes (docs/physics.md section 1): the sampled test against closed-form depths and
+# distances of boxes, spheres and capsules, converging as the samples grow
+# --------------------------------------------------------------------------------------------
+
+
+def _segment_segment_distance(p1, q1, p2, q2, m=4001):
+    """Distance between two segments, by a dense parameter grid on one and the exact projection on
+    the other (independent of the kernels)."""
+    t = np.linspace(0.0, 1.0, m)[:, None]
+    pts = p1 + t * (q1 - p1)
+    ab = q2 - p2
+    u = np.clip(((pts - p2) @ ab) / (ab @ ab), 0.0, 1.0)
+    return float(np.linalg.norm(pts - p2 - u[:, None] * ab, axis=1).min())
+
+
+def _general_cases(d):
+    """(label, a, b, exact depth: > 0 overlapping, < 0 minus the distance)."""
+    from penalty_env.physics import Box, Capsule
+
+    e = np.eye(d)
+    z = np.zeros(d)
+    cases = []
+    big = Box(z, np.ones(d))
+    for offset, depth in ((1.8, 0.2), (2.3, -0.3)):  # a box's face into (or 0.3 short of) another's
+        cases.append((f"box-box {offset}", big, Box(offset * e[0], np.r_[1.0, np.full(d - 1, 0.5)]), depth))
+    for D, depth in ((0.35, 0.15), (0.8, -0.3)):  # a sphere 0.35 (0.8) off a face, radius 0.5
+        cases.append((f"box-sphere {D}", big, Sphere(tuple((1.0 + D) * e[-1]), 0.5), depth))
+    # crossed capsules: axes along x and along the last axis... offset along y by s
+    p1, q1 = -e[0], e[0]
+    for s in (0.45, 0.75):
+        p2 = s * e[1] + 0.3 * e[0] - 0.8 * e[-1] if d == 3 else s * e[1] + 0.3 * e[0] - 0.8 * e[1] * 0
+        q2 = p2 + (1.6 * e[-1] if d == 3 else 0.6 * e[0])
+        dist = _segment_segment_distance(p1, q1, p2, q2)
+        cases.append((f"capsule-capsule {s}", Capsule(p1, q1, 0.3), Capsule(p2, q2, 0.25), 0.55 - dist))
+    return cases
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_implicit_overlap_of_boxes_spheres_and_capsules_converges_to_the_closed_forms(d):
+    for label, a, b, exact in _general_cases(d):
+        errors = []
+        for n in (64, 256, 1024, 4096):
+            res = implicit_overlap(a, b, n_samples=n)
+            assert bool(res) is (exact > 0), (label, n, res.depth, exact)
+            errors.append(abs(res.depth - exact))
+        assert errors[-1] < 2e-3 * max(abs(exact), 0.1), (label, errors)
+        assert errors[-1] <= errors[0] + 1e-12, (label, errors)
