@@ -180,7 +180,7 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, st
         for k in range(na):
             for w in range(W):
                 E[0, k, w] = fmax * (T[0, k, w] - V[0, k, w] * inv_vmax)
-        L.lanes_step(True, dt, X, V, A, E, F, W, model, friction, g)
+        L.lanes_step(True, dt, X, V, A, E, F, W, ids, 0, model, friction, g)
     return L.store_block(ids, 0, W, x, v, X, V, status, g)
 
 

@@ -20,7 +20,7 @@ from gymnasium.vector.utils import batch_space
 from .. import _validate as V
 from . import fused_step as KE
 from .render import HumanWindow, Renderer
-from .scene import PARAMETERS, PenaltyBallsScene, coerce_action, render_fps
+from .scene import CHOICE_PARAMETERS, PARAMETERS, PenaltyBallsScene, coerce_action, render_fps
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS"]
 
@@ -29,6 +29,8 @@ MAX_EPISODE_STEPS = 150  # registered for both ids: 6 s of simulated time at the
 
 def _parameters_table() -> str:
     rows = ["    | Parameter | Default | Allowed | Description |", "    |---|---|---|---|"]
+    for name, (choice, allowed, meaning) in CHOICE_PARAMETERS.items():
+        rows.append(f"    | `{name}` | `{choice!r}` | {', '.join(f'`{a!r}`' for a in allowed)} | {meaning} |")
     for name, (default, lo, hi, meaning) in PARAMETERS.items():
         rows.append(f"    | `{name}` | {default} | [{lo}, {hi}] | {meaning} |")
     return "\n".join(rows)
@@ -184,6 +186,22 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     explicit per substep, must not overshoot), and the obstacles must fit their start region (at
     most 8 of the default size in 3D, 1 in 2D).
 
+    ## Terrain
+
+    `terrain=` picks the ground (every choice in 2D too, where planes are lines and the height
+    field is a curve); the start distribution, goals and rewards are the same on each:
+
+    | `terrain` | Shapes | Notes |
+    |---|---|---|
+    | `"bowl"` (default) | `Bowl` of radius `bowl_radius` | v0's episodes, bit for bit |
+    | `"arena"` | a floor `Plane` and four wall planes 2 m from the centre | flat: nothing rolls back to the centre; one plane per wall gives the full force in the corners |
+    | `"bumpy"` | a `HeightField` (5 m square, 0.1 m cells) of the bowl's floor plus Gaussian bumps, the `Bowl` beyond it | bumps (40 in 3D, 12 in 2D, 0.15-0.35 m wide, 0.3-1 x `roughness` high, the field scaled so its top is the tallest bump) redrawn at every reset from the env's `np_random`, after the start's draws |
+
+    A height field's phi is the vertical gap times the local normal's z component, exact on a
+    tilted plane; on the bumps its error is within the curvature bound in `docs/physics.md`
+    section 1. The shapes themselves are
+    `penalty_env.physics` shapes; `World` takes any of them (see `docs/physics.md`).
+
     ## Rendering
 
     `render_mode="rgb_array"` returns a uint8 `(render_height, render_width, 3)` frame (3D: top
@@ -205,6 +223,8 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
       random in-range combinations, some burying a ball by more than its radius), the terrain
       spring is stiffened to hold it there; and a combination whose nearly elastic contacts gain
       energy at v0's substep warns (`EnergyDriftWarning`) instead of heating silently.
+      The `terrain` and `roughness` keywords were added later: their defaults (`"bowl"`) are
+      v0's episodes, unchanged.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": render_fps(PARAMETERS["control_period"][0])}

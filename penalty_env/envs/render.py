@@ -1,7 +1,8 @@
 """Frames of a PenaltyBalls world: a small Numba rasteriser over a precomputed terrain image.
 
-3D scenes are drawn from above (orthographic): the terrain is shaded by its slope and ringed
-with contour lines every 5 cm of height, each ball is a lit sphere (diffuse + specular) with a
+3D scenes are drawn from above (orthographic): the terrain (any shapes: it is found by sphere
+tracing their distance from above, the bowl analytically) is shaded by its slope, steep faces such
+as walls darker, and ringed with contour lines every 5 cm of height, each ball is a lit sphere (diffuse + specular) with a
 soft shadow that slides away from it as it rises, and higher balls are drawn over lower ones.
 2D scenes are drawn from the side: the bowl's solid below its surface line, shaded discs above.
 The goal is a green ring whose radius is the success tolerance. A body outside the view is drawn
@@ -18,7 +19,7 @@ import numpy as np
 
 from .._jit import njit
 
-__all__ = ["Renderer", "HumanWindow"]
+__all__ = ["Renderer", "HumanWindow", "terrain_image", "terrain_heightmap"]
 
 VIEW_HALF_WIDTH = 1.75  # metres of terrain shown either side of the bowl's bottom
 CONTOUR_STEP = 0.05  # metres of height between contour lines (3D)
@@ -127,8 +128,9 @@ def _rect(img, x0f, y0f, x1f, y1f, r, g, b):
 
 
 @njit
-def _draw_3d(img, pos, radii, colors, goal, goal_tol, R, scale, order):
-    """Top view: x right, y up in the world (down in the image); z gives shadow and order."""
+def _draw_3d(img, pos, radii, colors, goal, goal_tol, ground, scale, order):
+    """Top view: x right, y up in the world (down in the image); z gives shadow and order;
+    ``ground`` is the terrain's height under each ball."""
     H, W = img.shape[0], img.shape[1]
     ox = 0.5 * W
     oy = 0.5 * H
@@ -156,9 +158,7 @@ def _draw_3d(img, pos, radii, colors, goal, goal_tol, R, scale, order):
     # shadows first: cast away from the light, farther the higher the ball floats
     for i in range(n):
         x, y, z = pos[i, 0], pos[i, 1], pos[i, 2]
-        rho2 = x * x + y * y
-        ground = R - math.sqrt(max(R * R - rho2, 0.0))
-        lift = max(0.0, z - radii[i] - ground)
+        lift = max(0.0, z - radii[i] - ground[i])
         sx = ox + (x - (lx / lz) * (radii[i] * 0.6 + lift)) * scale
         sy = oy - (y + (ly / lz) * (radii[i] * 0.6 + lift)) * scale
         _shadow(img, sx, sy, radii[i] * scale, 0.45 / (1.0 + 4.0 * lift))
@@ -246,6 +246,84 @@ def _background_2d(W: int, H: int, R: float, scale: float, ground_px: float) -> 
     X, Z = np.meshgrid(xs, zs)
     dist = np.sqrt(X * X + (Z - R) ** 2)  # to the bowl's centre (0, R)
     depth = (dist - R) * scale  # pixels into the solid (> 0) or the free space (< 0)
+    return _side_image(Z, depth)
+
+
+def _shade_3d(
+    Z: np.ndarray, nx: np.ndarray, ny: np.ndarray, nz: np.ndarray, scale: float, sky: np.ndarray
+) -> np.ndarray:
+    """A top view of a height map ``Z`` with normals n: sand lit by the normal (its slope read at a
+    glance), contour rings every CONTOUR_STEP of height, steep faces (walls) darker; ``sky`` marks
+    columns without ground."""
+    lx, ly, lz = np.array(LIGHT) / np.linalg.norm(LIGHT)
+    lambert = np.clip(nx * lx - ny * ly + nz * lz, 0.0, 1.0)  # image y is flipped
+    span = max(float(np.ptp(Z[~sky])) if np.any(~sky) else 0.0, 1e-9)
+    shade = 0.78 + 2.5 * (lambert - lz) + 0.06 * (1.0 - (Z - Z[~sky].min() if np.any(~sky) else Z) / span)
+    sand = np.array([0.90, 0.84, 0.70])
+    img = sand[None, None, :] * np.clip(shade, 0.45, 1.1)[..., None]
+    wall = np.clip((0.5 - nz) * 2.0, 0.0, 1.0)[..., None]  # faces steeper than 60 degrees
+    img = img * (1.0 - wall) + np.array([0.52, 0.50, 0.48]) * wall
+    gy, gx = np.gradient(Z * scale)
+    slope = np.maximum(np.hypot(gx, gy) / max(CONTOUR_STEP * scale, 1e-9), 1e-3)
+    phase = Z / CONTOUR_STEP
+    frac = np.abs(phase - np.round(phase)) / slope  # pixel distance to the nearest contour
+    line = np.clip(1.0 - frac, 0.0, 1.0) * (nz > 0.5)
+    img *= (1.0 - 0.18 * line)[..., None]
+    img[sky] = np.array([0.80, 0.88, 0.97])
+    return np.clip(255.0 * img + 0.5, 0, 255).astype(np.uint8)
+
+
+def terrain_heightmap(distance, xs: np.ndarray, ys: np.ndarray, top: float, bottom: float):
+    """The terrain seen from above, for any shapes: each column (x, y) is marched down from z = top
+    by sphere tracing (z <- z - phi, a safe step for a distance or a bound of it) until phi is
+    about 0. ``distance(points) -> (phi, normal)``. Returns the height Z, the normal at the hit
+    (nx, ny, nz) and where no ground was met above ``bottom``."""
+    X, Y = np.meshgrid(xs, ys)
+    z = np.full(X.shape, float(top))
+    eps = 1e-3
+    # first through any solid at the top (a container's lid, the rock around a cavity): the view
+    # is a cut-away, the first surface below free space; a column solid all the way down is a wall
+    phi, _ = distance(np.stack([X, Y, z], -1))
+    lid = phi <= 0.0
+    for _ in range(400):
+        inside = (phi < 0.0) & (z > bottom)
+        if not np.any(inside):
+            break
+        z = np.where(inside, z - np.maximum(-phi, eps), z)
+        phi, _ = distance(np.stack([X, Y, z], -1))
+    wall = z <= bottom
+    z = np.where(wall, top, np.where(lid, z - eps, z))  # just below the lid's underside
+    for _ in range(400):
+        phi, _ = distance(np.stack([X, Y, z], -1))
+        step = np.where((phi > 1e-4) & ~wall, phi, 0.0)
+        if not np.any(step > 0.0):
+            break
+        z = np.maximum(z - step, bottom - 1.0)
+    phi, n = distance(np.stack([X, Y, z], -1))
+    sky = (z <= bottom) | ~np.isfinite(phi)
+    n = np.where(wall[..., None], np.array([0.0, 0.0, 0.0]), n)  # a wall is drawn as a steep face
+    return z, n[..., 0], n[..., 1], n[..., 2], sky
+
+
+def _background_generic_3d(W: int, H: int, scale: float, distance, top: float) -> tuple[np.ndarray, np.ndarray]:
+    """A top view of any terrain (``distance``): the image and its height map (for the shadows)."""
+    xs = (np.arange(W) + 0.5 - 0.5 * W) / scale
+    ys = -(np.arange(H) + 0.5 - 0.5 * H) / scale
+    Z, nx, ny, nz, sky = terrain_heightmap(distance, xs, ys, top, -top)
+    return _shade_3d(Z, nx, ny, nz, scale, sky), Z
+
+
+def _background_generic_2d(W: int, H: int, scale: float, ground_px: float, distance) -> np.ndarray:
+    """A side view of any terrain: sky where phi > 0, earth inside the solid, a surface line."""
+    xs = (np.arange(W) + 0.5 - 0.5 * W) / scale
+    zs = (ground_px - (np.arange(H) + 0.5)) / scale
+    X, Z = np.meshgrid(xs, zs)
+    phi, _ = distance(np.stack([X, Z], -1))
+    depth = -phi * scale  # pixels into the solid (> 0) or the free space (< 0)
+    return _side_image(Z, depth)
+
+
+def _side_image(Z: np.ndarray, depth: np.ndarray) -> np.ndarray:
     sky_top, sky_low = np.array([0.80, 0.88, 0.97]), np.array([0.96, 0.97, 0.99])
     t = np.clip((Z - Z.min()) / max(float(Z.max() - Z.min()), 1e-9), 0.0, 1.0)[..., None]
     sky = sky_low + (sky_top - sky_low) * t
@@ -257,6 +335,20 @@ def _background_2d(W: int, H: int, R: float, scale: float, ground_px: float) -> 
     return np.clip(255.0 * img + 0.5, 0, 255).astype(np.uint8)
 
 
+def terrain_image(world, b: int, width: int, height: int) -> np.ndarray:
+    """The terrain of world ``b`` of any ``World`` as the renderer draws it: a top view in 3D, a side
+    view in 2D, ``2 VIEW_HALF_WIDTH`` metres across (``python -m penalty_env.bench shapes`` draws
+    every shape with it)."""
+    scale = width / (2.0 * VIEW_HALF_WIDTH)
+
+    def distance(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return world.terrain_distance(points, world=b)
+
+    if world.dim == 3:
+        return _background_generic_3d(width, height, scale, distance, top=2.5)[0]
+    return _background_generic_2d(width, height, scale, 0.8 * height, distance)
+
+
 class Renderer:
     """Draws world ``b`` of a :class:`~penalty_env.envs.scene.PenaltyBallsScene` into a uint8
     ``(height, width, 3)`` frame. The terrain image is computed once."""
@@ -265,24 +357,64 @@ class Renderer:
         self.scene = scene
         self.width, self.height = int(width), int(height)
         self.scale = self.width / (2.0 * VIEW_HALF_WIDTH)  # pixels per metre
+        self.ground_px = 0.8 * self.height
+        self.bowl = scene.terrain_kind == "bowl"
         R = scene.bowl_radius
-        if scene.dim == 3:
-            self.background = _background_3d(self.width, self.height, R, self.scale)
-        else:
-            self.ground_px = 0.8 * self.height
-            self.background = _background_2d(self.width, self.height, R, self.scale, self.ground_px)
+        self._backgrounds: dict[
+            int, tuple[int, np.ndarray, np.ndarray | None]
+        ] = {}  # world -> (version, image, heights)
+        if self.bowl:  # the bowl's own drawing (analytic): the same for every world
+            if scene.dim == 3:
+                self.background = _background_3d(self.width, self.height, R, self.scale)
+            else:
+                self.background = _background_2d(self.width, self.height, R, self.scale, self.ground_px)
         colors = [PUSHER_COLOR, BALL_COLOR] + [OBSTACLE_COLOR] * scene.n_obstacles
         self.colors = np.array(colors, dtype=np.float64)
         self.radii = np.ascontiguousarray(scene.radii, dtype=np.float64)
         self._order = np.zeros(len(self.radii), dtype=np.int64)
 
+    def _terrain(self, b: int) -> tuple[np.ndarray, np.ndarray | None]:
+        """World b's terrain image (and height map in 3D), drawn from its shapes' distance and
+        redrawn when the scene's terrain version of that world changes (bumps at a reset)."""
+        s = self.scene
+        version = int(s.terrain_version[b])
+        cached = self._backgrounds.get(b)
+        if cached is None or cached[0] != version:
+            world = s.world
+
+            def distance(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                return world.terrain_distance(points, world=b)
+
+            if s.dim == 3:
+                img, Z = _background_generic_3d(self.width, self.height, self.scale, distance, top=2.5)
+            else:
+                img, Z = _background_generic_2d(self.width, self.height, self.scale, self.ground_px, distance), None
+            cached = self._backgrounds[b] = (version, img, Z)
+        return cached[1], cached[2]
+
+    def _ground(self, b: int, pos: np.ndarray, heights: np.ndarray | None) -> np.ndarray:
+        """The terrain's height under each ball (3D): the bowl's analytic floor, or the height map."""
+        if self.bowl:
+            R = self.scene.bowl_radius
+            return R - np.sqrt(np.maximum(R * R - pos[:, 0] ** 2 - pos[:, 1] ** 2, 0.0))
+        assert heights is not None
+        px = np.clip(((pos[:, 0] * self.scale) + 0.5 * self.width).astype(int), 0, self.width - 1)
+        py = np.clip((0.5 * self.height - pos[:, 1] * self.scale).astype(int), 0, self.height - 1)
+        return heights[py, px]
+
     def frame(self, b: int = 0) -> np.ndarray:
         s = self.scene
-        img = self.background.copy()
+        heights = None
+        if self.bowl:
+            img = self.background.copy()
+        else:
+            background, heights = self._terrain(b)
+            img = background.copy()
         pos = np.ascontiguousarray(s.world.positions[b])
         goal = np.ascontiguousarray(s.goal[b])
         if s.dim == 3:
-            _draw_3d(img, pos, self.radii, self.colors, goal, s.goal_tolerance, s.bowl_radius, self.scale, self._order)
+            ground = np.ascontiguousarray(self._ground(b, pos, heights))
+            _draw_3d(img, pos, self.radii, self.colors, goal, s.goal_tolerance, ground, self.scale, self._order)
         else:
             _draw_2d(
                 img, pos, self.radii, self.colors, goal, s.goal_tolerance, s.bowl_radius, self.scale, self.ground_px

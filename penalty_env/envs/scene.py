@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import _validate as V
-from ..physics import Bowl, World, theory
+from ..physics import Bowl, HeightField, Plane, World, theory
 from ..physics import runner as _runner
 from ..physics.configure import configure
 from ..physics.lanes import LANES
@@ -59,8 +59,18 @@ PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
     "gravity": (9.81, 0.1, 50.0, "gravitational acceleration, m/s^2"),
     "render_width": (256, 16, 4096, "rgb_array frame width, pixels"),
     "render_height": (256, 16, 4096, "rgb_array frame height, pixels"),
+    "roughness": (0.05, 0.0, 0.15, "terrain='bumpy': the largest bump height, m"),
 }
 INT_PARAMETERS = ("n_obstacles", "render_width", "render_height")
+# keyword arguments that choose among names: default, allowed, meaning
+CHOICE_PARAMETERS: dict[str, tuple[str, tuple[str, ...], str]] = {
+    "terrain": (
+        "bowl",
+        ("bowl", "arena", "bumpy"),
+        "the ground: the spherical bowl (v0's), a flat arena walled by planes, or the bowl as a height "
+        "field with random bumps redrawn at every reset",
+    ),
+}
 
 # Start distribution (the env docstring's "Starting State" table)
 BALL_START_RADIUS = 0.5  # the ball starts within this horizontal distance of the bowl's bottom
@@ -70,6 +80,14 @@ OBSTACLE_REGION = {3: 1.2, 2: 1.5}  # obstacles: disc radius (3D) / half-length 
 OBSTACLE_GAP = 0.05  # minimum surface gap of an obstacle to any other ball at the start
 OBSTACLE_DENSITY = 0.25  # obstacle footprints may cover at most this share of their region
 OBSTACLE_TRIES = 10_000
+
+# Terrains other than the bowl (the env docstring's "Terrain" table)
+ARENA_HALF_WIDTH = 2.0  # terrain="arena": the walls stand this far from the centre, m
+BUMPY_HALF_WIDTH = 2.5  # terrain="bumpy": the height field covers the square of this half width, m
+BUMPY_CELL = 0.1  # ... with nodes this far apart, m
+BUMPY_COUNT = {3: 40, 2: 12}  # Gaussian bumps per draw
+BUMPY_WIDTH = (0.15, 0.35)  # their standard deviation, m, uniform
+BUMPY_TAPER = 0.5  # bumps fade out over this distance to the field's edge, m (the bowl beyond is smooth)
 
 # Reward (the env docstring's "Rewards" table)
 W_GOAL = 10.0  # per metre the ball gets closer to the goal
@@ -101,9 +119,14 @@ def check_parameters(dim: int, params: dict[str, Any], owner: str = "PenaltyBall
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got {dim!r}")
     for name in params:
-        if name not in PARAMETERS:
-            raise TypeError(f"{owner}() got an unexpected keyword argument {name!r} (allowed: {', '.join(PARAMETERS)})")
+        if name not in PARAMETERS and name not in CHOICE_PARAMETERS:
+            raise TypeError(
+                f"{owner}() got an unexpected keyword argument {name!r} (allowed: "
+                f"{', '.join([*PARAMETERS, *CHOICE_PARAMETERS])})"
+            )
     out: dict[str, Any] = {}
+    for name, (choice_default, allowed, _) in CHOICE_PARAMETERS.items():
+        out[name] = V.choice(name, params.get(name, choice_default), allowed)
     for name, (default, lo, hi, meaning) in PARAMETERS.items():
         value = params.get(name, default)
         if name in INT_PARAMETERS:
@@ -147,6 +170,11 @@ class PenaltyBallsScene:
         self.masses = np.array([p["pusher_mass"], p["ball_mass"]] + [p["obstacle_mass"]] * self.n_obstacles)
         self.bowl_radius = R = p["bowl_radius"]
         self.bowl = Bowl((0.0,) * (d - 1) + (R,), R)  # the floor's lowest point is the origin
+        self.terrain_kind = p["terrain"]
+        self.roughness = p["roughness"]
+        self.terrain = self._make_terrain()
+        # bumped at every reset of a world whose terrain changes (the renderer redraws it then)
+        self.terrain_version = np.zeros(B, dtype=np.int64)
         self.gravity = p["gravity"]
         self.control_period = p["control_period"]
         self.goal_tolerance = p["goal_tolerance"]
@@ -188,7 +216,7 @@ class PenaltyBallsScene:
         gravity = (0.0,) * (d - 1) + (-self.gravity,)
         start = self._placeholder_positions()
         common: dict[str, Any] = dict(
-            terrain=(self.bowl,),
+            terrain=self.terrain,
             gravity=gravity,
             ks=self.ks,
             kd=self.kd,
@@ -286,6 +314,48 @@ class PenaltyBallsScene:
         self._step_kernel = _runner.entry_point(KE.step_worlds, self._step_calls[0])
 
     # ------------------------------------------------------------------ construction helpers
+    def _make_terrain(self) -> tuple:
+        """The terrain shapes (the env docstring's "Terrain" table)."""
+        d = self.dim
+        up = np.eye(d)[-1]
+        if self.terrain_kind == "bowl":
+            return (self.bowl,)
+        if self.terrain_kind == "arena":
+            walls = [Plane(-s * ARENA_HALF_WIDTH * e, s * e) for e in np.eye(d)[:-1] for s in (1.0, -1.0)]
+            return (Plane(np.zeros(d), up), *walls)
+        # bumpy: the bowl's floor as a height field (bumps drawn at each reset), the bowl beyond it
+        n = int(round(2.0 * BUMPY_HALF_WIDTH / BUMPY_CELL)) + 1
+        self._bumpy_axis = np.linspace(-BUMPY_HALF_WIDTH, BUMPY_HALF_WIDTH, n)
+        ramp = np.clip((BUMPY_HALF_WIDTH - np.abs(self._bumpy_axis)) / BUMPY_TAPER, 0.0, 1.0)
+        self._bumpy_taper = ramp * ramp * (3.0 - 2.0 * ramp)  # smoothstep: the bumps fade to the edge
+        R = self.bowl_radius
+        axes = np.meshgrid(*([self._bumpy_axis] * (d - 1)), indexing="ij")
+        rho2 = sum(a * a for a in axes)
+        self._bumpy_floor = R - np.sqrt(R * R - rho2)  # the bowl's floor at the nodes
+        field = HeightField(self._bumpy_floor, BUMPY_CELL, origin=(-BUMPY_HALF_WIDTH,) * (d - 1))
+        return (field, self.bowl)
+
+    def _bump_heights(self, rng: np.random.Generator) -> np.ndarray:
+        """A new bumpy floor: the bowl's plus BUMPY_COUNT Gaussian bumps of random centre, width and
+        height (0.3 to 1 x ``roughness``), faded out towards the field's edge, their sum scaled so that
+        its top is the tallest bump's height (so never above ``roughness``). Draws d + 1 uniforms per
+        bump from ``rng``, after the start's."""
+        d = self.dim
+        u = rng.random((BUMPY_COUNT[d], d + 1))
+        centre = (2.0 * u[:, : d - 1] - 1.0) * (BUMPY_HALF_WIDTH - BUMPY_TAPER)
+        sigma = BUMPY_WIDTH[0] + (BUMPY_WIDTH[1] - BUMPY_WIDTH[0]) * u[:, d - 1]
+        height = self.roughness * (0.3 + 0.7 * u[:, d])
+        ax = self._bumpy_axis
+        g = [
+            np.exp(-0.5 * ((ax[None, :] - centre[:, k, None]) / sigma[:, None]) ** 2) * self._bumpy_taper
+            for k in range(d - 1)
+        ]
+        bumps = height @ g[0] if d == 2 else np.einsum("k,ki,kj->ij", height, g[0], g[1])
+        top = float(bumps.max())
+        if top > 0.0:  # overlapping bumps add up: scale the field back to the tallest bump's height
+            bumps *= float(height.max()) / top
+        return self._bumpy_floor + bumps
+
     def _placeholder_positions(self) -> np.ndarray:
         """Non-overlapping resting positions on a line (overwritten by the first reset)."""
         d, n = self.dim, len(self.radii)
@@ -346,7 +416,11 @@ class PenaltyBallsScene:
         if any(rng is None for rng in rngs):
             raise ValueError("every world reset needs its random generator (reset the env, with or without a seed)")
         flat = np.array([self._sample(rng) for rng in rngs if rng is not None]).reshape(idx.size, self.n_balls + 1, -1)
-        pos = self._on_terrain(flat)
+        if self.terrain_kind == "bumpy":
+            heights = np.array([self._bump_heights(rng) for rng in rngs if rng is not None])
+            self.world.set_heights(0, heights, worlds=idx)
+            self.terrain_version[idx] += 1
+        pos = self._on_terrain(flat, idx)
         self.goal[idx] = pos[:, -1]
         self.world.set_state(positions=pos[:, :-1], velocities=self._velocity_zeros[: idx.size], worlds=idx)
         self.stepping[idx] = False
@@ -354,12 +428,24 @@ class PenaltyBallsScene:
             self._run(idx, self._split(idx))
             self.stepping[idx] = True
 
-    def _on_terrain(self, h: np.ndarray) -> np.ndarray:
-        """Centres resting on the terrain at horizontal positions ``h`` (..., n + 1, d - 1): each
-        ball sunk by its resting overlap m g / ks; the last slot (the goal) as the ball."""
-        R = self.bowl_radius
-        depth = R - self._rest_radii  # distance of a resting centre from the bowl's centre
-        z = R - np.sqrt(depth**2 - np.sum(h * h, axis=-1))
+    def _on_terrain(self, h: np.ndarray, worlds: np.ndarray | None = None) -> np.ndarray:
+        """Centres resting on the terrain at horizontal positions ``h`` (k, n + 1, d - 1) of
+        ``worlds``: each ball sunk by its resting overlap m g / ks (along the terrain's normal);
+        the last slot (the goal) as the ball. ``worlds=None``: ``h`` is (n + 1, d - 1), world 0."""
+        if worlds is None:
+            return self._on_terrain(np.asarray(h)[None], np.zeros(1, dtype=np.int64))[0]
+        if self.terrain_kind == "bowl":
+            R = self.bowl_radius
+            depth = R - self._rest_radii  # distance of a resting centre from the bowl's centre
+            z = R - np.sqrt(depth**2 - np.sum(h * h, axis=-1))
+        elif self.terrain_kind == "arena":
+            z = np.broadcast_to(self._rest_radii, h.shape[:-1])
+        else:  # the height field's phi is (z - h) n_z: phi = rest radius at z = (rest - phi(z = 0)) / n_z
+            z = np.empty(h.shape[:-1])
+            for t, b in enumerate(worlds):
+                ground = np.concatenate([h[t], np.zeros((h.shape[1], 1))], axis=-1)
+                phi0, normal = self.world.shape_distance(0, ground, world=int(b))
+                z[t] = (self._rest_radii - phi0) / normal[:, -1]
         return np.concatenate([h, z[..., None]], axis=-1)
 
     def _sample(self, rng: np.random.Generator) -> list[float]:
