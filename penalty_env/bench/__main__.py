@@ -1,4 +1,4 @@
-"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures} [options]``."""
+"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,ab,shapes} [options]``."""
 
 from __future__ import annotations
 
@@ -13,6 +13,8 @@ COMMANDS = {
     "energy": "penalty_env.bench.energy",
     "soak": "penalty_env.bench.soak",
     "figures": "penalty_env.bench.figures",
+    "ab": "penalty_env.bench.ab",
+    "shapes": "penalty_env.bench.shapes",
 }
 
 
