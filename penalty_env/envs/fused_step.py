@@ -24,7 +24,6 @@ from .._jit import njit
 from ..physics import lanes as L
 from ..physics.broadphase import contacts
 from ..physics.contact import MAXPEN
-from .observation import GOAL, POSITION, VELOCITY
 
 __all__ = ["TaskParams", "StepBuffers", "INFO_KEYS", "new_buffers", "step_worlds", "first_bad_action", "OK"]
 
@@ -122,28 +121,31 @@ def _distances(b, x, goal, task, D):
 
 
 @njit(inline="always")
-def _body(b, who, k, x, goal):
-    """Coordinate k of a field's body: ball ``who`` or the goal."""
-    return goal[b, k] if who == GOAL else x[b, who, k]
-
-
-@njit(inline="always")
 def observe(b, x, v, goal, obs, table, bounds, D):
-    """Write world b's observation by the layout ``table`` (rows kind, a, b), clipped to ``bounds``
-    ((2, size): low, high)."""
-    for f in range(table.shape[0]):
-        kind = table[f, 0]
-        p = table[f, 1]
-        q = table[f, 2]
-        for k in range(D):
-            idx = f * D + k
-            if kind == POSITION:
-                val = _body(b, p, k, x, goal)
-            elif kind == VELOCITY:
-                val = v[b, p, k]
-            else:  # DIFFERENCE
-                val = _body(b, p, k, x, goal) - _body(b, q, k, x, goal)
-            obs[b, idx] = _clip(val, bounds[0, idx], bounds[1, idx])
+    """Write world b's observation, clipped to ``bounds`` ((2, size): low, high).
+
+    The fields are :class:`.observation.ObservationLayout`'s, in its order (pusher position and
+    velocity, ball position and velocity, goal, ball - pusher, goal - ball, then each obstacle's
+    position and velocity), written field by field: ``table`` (its rows kind, a, b) is what they
+    must equal (``tests`` check the kernel against it) but is not read per entry. Reading it per
+    entry (a branch on the kind and on "goal or ball" for every coordinate) cost twice the
+    instructions of this step's observation: callgrind, make_vec(1024).step, +200 instructions per
+    world-step, 7% of the fused kernel."""
+    lo = bounds[0]
+    hi = bounds[1]
+    n = x.shape[1]
+    for k in range(D):
+        obs[b, k] = _clip(x[b, 0, k], lo[k], hi[k])
+        obs[b, D + k] = _clip(v[b, 0, k], lo[D + k], hi[D + k])
+        obs[b, 2 * D + k] = _clip(x[b, 1, k], lo[2 * D + k], hi[2 * D + k])
+        obs[b, 3 * D + k] = _clip(v[b, 1, k], lo[3 * D + k], hi[3 * D + k])
+        obs[b, 4 * D + k] = _clip(goal[b, k], lo[4 * D + k], hi[4 * D + k])
+        obs[b, 5 * D + k] = _clip(x[b, 1, k] - x[b, 0, k], lo[5 * D + k], hi[5 * D + k])
+        obs[b, 6 * D + k] = _clip(goal[b, k] - x[b, 1, k], lo[6 * D + k], hi[6 * D + k])
+        for j in range(2, n):
+            base = 7 * D + 2 * D * (j - 2)
+            obs[b, base + k] = _clip(x[b, j, k], lo[base + k], hi[base + k])
+            obs[b, base + D + k] = _clip(v[b, j, k], lo[base + D + k], hi[base + D + k])
 
 
 @njit(inline="always")
