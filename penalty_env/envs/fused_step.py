@@ -19,11 +19,14 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba.extending import overload
 
 from .._jit import njit
 from ..physics import lanes as L
 from ..physics.broadphase import contacts
 from ..physics.contact import MAXPEN
+from ..physics.integrators import final_status, symplectic_euler_into
+from ..physics.rotation import is_spin, spin_tick
 
 __all__ = ["TaskParams", "StepBuffers", "INFO_KEYS", "new_buffers", "step_worlds", "first_bad_action", "OK"]
 
@@ -149,6 +152,17 @@ def observe(b, x, v, goal, obs, table, bounds, D):
 
 
 @njit(inline="always")
+def _throttle_scale(act, b, na):
+    """The throttle a is clipped to [-1, 1] per axis and then to the unit disc (this factor), so
+    the self-driven speed |v| = |a| v_max never exceeds v_max."""
+    a2 = 0.0
+    for k in range(na):
+        ak = _clip(act[b, k], -1.0, 1.0)
+        a2 += ak * ak
+    return 1.0 / np.sqrt(a2) if a2 > 1.0 else 1.0
+
+
+@njit(inline="always")
 def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
     """Advance the W worlds ``ids[:W]`` by one control period, one world per SIMD lane.
 
@@ -167,13 +181,7 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, st
                 E[i, k, w] = 0.0
     for w in range(W):
         b = ids[w]
-        # the throttle a is clipped to [-1, 1] per axis and then to the unit disc, so the
-        # self-driven speed |v| = |a| v_max never exceeds v_max
-        a2 = 0.0
-        for k in range(na):
-            ak = _clip(act[b, k], -1.0, 1.0)
-            a2 += ak * ak
-        scale = 1.0 / np.sqrt(a2) if a2 > 1.0 else 1.0
+        scale = _throttle_scale(act, b, na)
         for k in range(na):
             T[0, k, w] = _clip(act[b, k], -1.0, 1.0) * scale
     for _ in range(substeps):
@@ -186,6 +194,58 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, st
     return L.store_block(ids, 0, W, x, v, X, V, status, g)
 
 
+@njit
+def _spin_block(ids, W, act, x, v, S, model, spin, dt, substeps, task, status, g):
+    """Advance the W worlds ``ids[:W]`` by one control period with rotation (``physics="rolling"``):
+    the core's scalar symplectic Euler step with the rotating contact law, world by world (the
+    SIMD-lanes twin does not rotate). ``S`` is ``(a, ext)``, (B, n, D) each, shared by the threads
+    (each world's rows are its own). The motor is :func:`_physics_block`'s. Returns the number of
+    blown-up worlds."""
+    A, E = S
+    na = act.shape[1]
+    fmax = task.max_force
+    inv_vmax = 1.0 / task.max_speed
+    bad = 0
+    for w in range(W):
+        b = ids[w]
+        scale = _throttle_scale(act, b, na)
+        for i in range(E.shape[1]):
+            for k in range(E.shape[2]):
+                E[b, i, k] = 0.0
+        ok = True
+        for _ in range(substeps):
+            for k in range(na):
+                E[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) * scale - v[b, 0, k] * inv_vmax)
+            ok = symplectic_euler_into(A, b, dt, x, v, E, None, model, spin, g) and ok
+            spin_tick(spin, b)
+        st = final_status(b, ok, x, v, g)
+        status[b] = st
+        if st != 0:
+            bad += 1
+    return bad
+
+
+def physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
+    """One control period of the worlds ``ids[:W]``: :func:`_physics_block` (SIMD lanes), or
+    :func:`_spin_block` when the balls rotate (jitted code only)."""
+    raise NotImplementedError
+
+
+@overload(physics_block)  # not inlined: inlining a choice made at compile time trips Numba's SSA checks
+def _physics_block_choice(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
+    if is_spin(friction):
+
+        def spinning(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
+            return _spin_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g)
+
+        return spinning
+
+    def sliding(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
+        return _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g)
+
+    return sliding
+
+
 @njit(nogil=True)
 def step_worlds(
     worlds, act, stepping, x, v, scratch, ids, model, friction, g, dt, substeps, task, table, bounds, goal, buf
@@ -193,7 +253,9 @@ def step_worlds(
     """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
     observe them without stepping). ``x``, ``v``, ``model``, ``friction`` and ``g`` are the
     World's own (``World.state``, ``World.model``); gravity's length D compiles the D-dimensional
-    code. ``table``, ``bounds``: the observation layout and its bounds."""
+    code; with rotation ``friction`` is the World's :class:`~..physics.rotation.Spin` and
+    ``scratch`` :func:`_spin_block`'s buffers (:func:`physics_block`). ``table``, ``bounds``: the
+    observation layout and its bounds."""
     n_lanes = ids.shape[0]
     na = act.shape[1]
     status = buf.status
@@ -215,10 +277,10 @@ def step_worlds(
             ids[W] = b
             W += 1
             if W == n_lanes:
-                bad += _physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, task, status, g)
+                bad += physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, task, status, g)
                 W = 0
     if W > 0:
-        bad += _physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, task, status, g)
+        bad += physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, task, status, g)
     # observation, reward and diagnostics, world by world
     for t in range(worlds.shape[0]):
         b = worlds[t]

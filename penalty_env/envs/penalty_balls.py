@@ -68,11 +68,16 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     sphere of radius 8 m, gravity down). The agent drives the pusher with a horizontal motor and
     must push the ball onto a goal marked on the terrain. Every contact (pusher, ball, optional
     obstacle balls, terrain) is a penalty spring-dashpot with regularised Coulomb friction, stepped
-    by the project's Numba core (``penalty_env.physics``). Balls slide; they do not spin.
+    by the project's Numba core (``penalty_env.physics``). In `-v0` the balls slide without
+    spinning; in `-v1` they spin and roll (`physics="rolling"`: friction acts at the contact point
+    and exerts a torque, and a small rolling resistance `rolling_resistance` slows a rolling ball).
 
-    `PenaltyBalls-v0` is 3D. `PenaltyBalls2D-v0` is the same task in the bowl's vertical slice
-    (circles on a curve, the 2D kernels): there the pusher cannot pass the ball, so it starts on
-    the far side of the ball from the goal.
+    `PenaltyBalls-v0` and `-v1` are 3D. `PenaltyBalls2D-v0` and `-v1` are the same task in the
+    bowl's vertical slice (circles on a curve, the 2D kernels): there the pusher cannot pass the
+    ball, so it starts on the far side of the ball from the goal. In `-v1` the pusher's motor still
+    pushes at its centre (an action means what it means in `-v0`, and the same observation serves),
+    and friction at the ground makes the pusher roll as it drives; a pushed ball rolls on instead of
+    stopping like a puck, so the agent must push more gently or stop it on the goal.
 
     ## Action Space
 
@@ -224,7 +229,12 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
       spring is stiffened to hold it there; and a combination whose nearly elastic contacts gain
       energy at v0's substep warns (`EnergyDriftWarning`) instead of heating silently.
       The `terrain` and `roughness` keywords were added later: their defaults (`"bowl"`) are
-      v0's episodes, unchanged.
+      v0's episodes, unchanged; so were `physics` and `rolling_resistance` (default `"sliding"`:
+      v0's episodes).
+    * v1: the balls roll (`physics="rolling"`, `rolling_resistance=0.02`): the World's rotation
+      with regularised Coulomb friction at the contact point (docs/physics.md section 8). Each
+      world is stepped by the core's scalar step (the SIMD-lanes twin does not rotate), about 5x
+      the cost of a v0 step. Same observation, action, reward and start distribution.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": render_fps(PARAMETERS["control_period"][0])}

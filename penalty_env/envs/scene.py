@@ -60,6 +60,7 @@ PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
     "render_width": (256, 16, 4096, "rgb_array frame width, pixels"),
     "render_height": (256, 16, 4096, "rgb_array frame height, pixels"),
     "roughness": (0.05, 0.0, 0.15, "terrain='bumpy': the largest bump height, m"),
+    "rolling_resistance": (0.02, 0.0, 0.5, "physics='rolling': rolling resistance coefficient mu_r"),
 }
 INT_PARAMETERS = ("n_obstacles", "render_width", "render_height")
 # keyword arguments that choose among names: default, allowed, meaning
@@ -69,6 +70,12 @@ CHOICE_PARAMETERS: dict[str, tuple[str, tuple[str, ...], str]] = {
         ("bowl", "arena", "bumpy"),
         "the ground: the spherical bowl (v0's), a flat arena walled by planes, or the bowl as a height "
         "field with random bumps redrawn at every reset",
+    ),
+    "physics": (
+        "sliding",
+        ("sliding", "rolling"),
+        "the balls slide without spinning (v0's), or spin and roll (v1's default: friction exerts a torque, "
+        "rolling resistance rolling_resistance)",
     ),
 }
 
@@ -247,7 +254,24 @@ class PenaltyBallsScene:
                 f"raise max_speed or pusher_mass."
             )
         self.mu = p["friction"]
-        self.world = World(start, self.radii, self.masses, dt=self.dt, mu=self.mu, kf=self.kf, **common)
+        # physics="rolling": the balls spin (the World's rotation, regularised Coulomb friction at
+        # the contact point, rolling resistance); the pusher's motor still pushes at its centre (so
+        # an action means what it means in v0), and friction at the ground makes it roll
+        self.rolling = p["physics"] == "rolling"
+        if self.rolling:
+            self.world = World(
+                start,
+                self.radii,
+                self.masses,
+                dt=self.dt,
+                mu=self.mu,
+                rotation=True,
+                mu_r=p["rolling_resistance"],
+                **common,
+            )
+            self.kf = self.world.kf  # the largest the tangential effective mass allows (2/7 of v0's in 3D)
+        else:
+            self.world = World(start, self.radii, self.masses, dt=self.dt, mu=self.mu, kf=self.kf, **common)
 
         # --- spaces and the observation's layout (one definition: the kernel, the bounds, the docs)
         self.action_size = d - 1
@@ -290,6 +314,8 @@ class PenaltyBallsScene:
         threads = _runner.thread_count()
         self._lane_scratch = np.zeros((threads, 6, n, d, LANES))
         self._lane_ids = np.zeros((threads, LANES), dtype=np.int64)
+        # with rotation the scalar step's accelerations and external force, (B, n, d) each
+        self._spin_scratch = (np.zeros((B, n, d)), np.zeros((B, n, d))) if self.rolling else None
         # what the kernel steps: the World's own state and model (so ``world.positions``,
         # ``set_state``, ``energy`` and ``max_penetration`` see what the env steps). The World is
         # stepped with symplectic Euler over all pairs, which keeps nothing derived from its state,
@@ -298,7 +324,7 @@ class PenaltyBallsScene:
         self._state = (state.positions, state.velocities)
         self._tail = (
             model,
-            model.friction,
+            self.world.runner.friction,  # (mu, kf) or None; with rotation the World's Spin
             model.gravity,
             self.dt,
             self.substeps,
@@ -380,7 +406,13 @@ class PenaltyBallsScene:
     def _calls(self, chunks: Sequence[np.ndarray]) -> list[tuple]:
         x, v = self._state
         head = (self.actions, self.stepping, x, v)
-        return [(c,) + head + (self._lane_scratch[i], self._lane_ids[i]) + self._tail for i, c in enumerate(chunks)]
+        return [
+            (c,)
+            + head
+            + (self._spin_scratch if self.rolling else self._lane_scratch[i], self._lane_ids[i])
+            + self._tail
+            for i, c in enumerate(chunks)
+        ]
 
     def _run(self, worlds: np.ndarray, chunks: Sequence[np.ndarray]) -> None:
         if chunks is self._chunks:
@@ -422,7 +454,12 @@ class PenaltyBallsScene:
             self.terrain_version[idx] += 1
         pos = self._on_terrain(flat, idx)
         self.goal[idx] = pos[:, -1]
-        self.world.set_state(positions=pos[:, :-1], velocities=self._velocity_zeros[: idx.size], worlds=idx)
+        zeros = self._velocity_zeros[: idx.size]
+        if self.rolling:
+            spin = zeros if self.dim == 3 else zeros[..., :1]
+            self.world.set_state(positions=pos[:, :-1], velocities=zeros, angular_velocities=spin, worlds=idx)
+        else:
+            self.world.set_state(positions=pos[:, :-1], velocities=zeros, worlds=idx)
         self.stepping[idx] = False
         if observe:
             self._run(idx, self._split(idx))

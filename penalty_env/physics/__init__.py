@@ -15,6 +15,7 @@ Layout (one module per concern):
 ``contact_listed``        the pair law's neighbour-list twin; ``neighbour_list``: that path
 ``broadphase``            all pairs and the uniform grid
 ``integrators``           one step per method and the driver that runs any of them
+``rotation``              spin: the rotating contact law, the tangential models, rolling resistance
 ``events``                event-located stepping (contact switches located and crossed)
 ``diagnostics``           energy and penetration
 ``runner``                the thread pool, the work threshold, the choice of stepping path

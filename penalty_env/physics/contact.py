@@ -30,6 +30,8 @@ twin                                   what it varies                           
 ``contact_lanes.pair_contact_lanes``   one world per SIMD lane, the contact test a mask       ``tests/physics/test_stepping_paths.py``: bit for bit
 ``contact_lanes.terrain_contact_lanes`` the same for the terrain                              ``tests/physics/test_stepping_paths.py``: bit for bit
 ``contact_listed.pair_contact_listed`` a neighbour-list pass, branch-free, Newton's third law ``tests/physics/test_neighbour_list.py``: to round-off
+``rotation.spin_pair``                 with rotation: the normal law, then slip, torque       ``tests/physics/test_rotation.py``: bit for bit at mu = 0
+``rotation.spin_terrain_contact``      with rotation: :func:`terrain_law`, then the same      ``tests/physics/test_rotation.py``: bit for bit at mu = 0
 =====================================  =====================================================  ==============================================
 
 The neighbour-list twin without friction evaluates the same operations in another order (it sums

@@ -5,18 +5,22 @@ Each integrator is identified by the type of its scratch buffers (its *work*, al
 type when Numba compiles a driver, so a scene compiles only the integrator it uses, and one driver,
 :func:`run_worlds`, serves all five (the event-located driver in :mod:`.events` likewise).
 
-=====================  ===============================================  ===========================
-method                 one step of dt                                   angular state
-=====================  ===============================================  ===========================
-explicit Euler         x += dt v; v += dt a(x, v)                        (none yet)
-symplectic Euler       v += dt a(x, v); x += dt v (the course's)         (none yet)
-velocity Verlet        x1 = x + dt v + dt^2/2 a0; a1 = a(x1, v + dt a0);
-                       v1 = v + dt/2 (a0 + a1) (damping at the
-                       predicted end-of-step velocity; a1 cached)
-RK4                    classical fourth order, four force passes
-implicit Euler         linearised backward Euler, frozen contacts,
-                       Jacobi-preconditioned conjugate gradients
-=====================  ===============================================  ===========================
+=====================  ===============================================  ===============================
+method                 one step of dt                                   angular velocity w (rotation)
+=====================  ===============================================  ===============================
+explicit Euler         x += dt v; v += dt a(x, v)                        w += dt alpha(x, v, w)
+symplectic Euler       v += dt a(x, v); x += dt v (the course's)         w += dt alpha(x, v, w)
+velocity Verlet        x1 = x + dt v + dt^2/2 a0; a1 = a(x1, v + dt a0);  w1 = w + dt/2 (alpha0 + alpha1),
+                       v1 = v + dt/2 (a0 + a1) (damping at the          alpha1 at w + dt alpha0 (cached
+                       predicted end-of-step velocity; a1 cached)        as a1 is)
+RK4                    classical fourth order, four force passes        w as one more velocity
+implicit Euler         linearised backward Euler, frozen contacts,      w += dt alpha(x, v, w): explicit,
+                       Jacobi-preconditioned conjugate gradients        as friction is
+=====================  ===============================================  ===============================
+
+With rotation (docs/physics.md section 8) the ``friction`` argument is a
+:class:`.rotation.Spin`: :func:`forces` runs the rotating law and the ``spin_*`` calls advance w;
+otherwise each of them compiles to nothing.
 
 ``a(x, v) = (contact forces + ext) / m + g``: :func:`accelerations`, through the broad phase
 (:mod:`.broadphase`) and the contact laws (:mod:`.contact`). Every world is stepped serially, so a
@@ -40,6 +44,16 @@ from .._jit import njit
 from .broadphase import build_grid, contact_forces, contacts
 from .contact import DIAG, LINEAR
 from .geometry import advance_geometry
+from .rotation import (
+    is_spin,
+    spin_cache,
+    spin_contact_forces,
+    spin_correct,
+    spin_kick,
+    spin_predict,
+    spin_rk4,
+    spin_tick,
+)
 
 __all__ = [
     "INTEGRATORS",
@@ -130,6 +144,20 @@ def allocate_work(integrator: str, B: int, n: int, d: int):
 # --------------------------------------------------------------------------------------------
 
 
+def forces(b, x, v, a, grid, model, friction, g):
+    """Add every contact force of world b to ``a`` (jitted code only): the contact laws of
+    :mod:`.contact`, or with rotation (``friction`` a :class:`.rotation.Spin`) the rotating law,
+    which also sets the angular accelerations."""
+    raise NotImplementedError("forces is called from jitted code")
+
+
+@overload(forces, inline="always")
+def _forces(b, x, v, a, grid, model, friction, g):
+    if is_spin(friction):
+        return lambda b, x, v, a, grid, model, friction, g: spin_contact_forces(b, x, v, a, grid, model, friction, g)
+    return lambda b, x, v, a, grid, model, friction, g: contact_forces(b, x, v, a, grid, model, friction, g)
+
+
 @njit(inline="always")
 def accelerations(b, x, v, a, ext, grid, model, friction, g):
     """a = (contact forces + ext) / m + g for world b at state (x, v). False if x is not finite."""
@@ -141,7 +169,7 @@ def accelerations(b, x, v, a, ext, grid, model, friction, g):
             a[b, i, k] = 0.0
     if grid is not None:
         finite = build_grid(b, x, grid, model, g)
-    contact_forces(b, x, v, a, grid, model, friction, g)
+    forces(b, x, v, a, grid, model, friction, g)
     for i in range(n):
         im = model.inv_mass[i]
         for k in range(D):
@@ -175,6 +203,7 @@ def symplectic_euler_into(a, b, dt, x, v, ext, grid, model, friction, g):
         for k in range(D):
             v[b, i, k] += dt * a[b, i, k]
             x[b, i, k] += dt * v[b, i, k]
+    spin_kick(friction, b, dt)
     return ok
 
 
@@ -188,6 +217,7 @@ def explicit_euler_step(work, b, dt, x, v, ext, grid, model, friction, g):
         for k in range(D):
             x[b, i, k] += dt * v[b, i, k]
             v[b, i, k] += dt * a[b, i, k]
+    spin_kick(friction, b, dt)
     return ok
 
 
@@ -211,6 +241,7 @@ def velocity_verlet_step(work, b, dt, x, v, ext, grid, model, friction, g):
     ok = True
     if not a0_valid[b]:
         ok = accelerations(b, x, v, a0, None, grid, model, friction, g)
+        spin_cache(friction, b)
         a0_valid[b] = True
     for i in range(n):
         im = model.inv_mass[i]
@@ -218,7 +249,9 @@ def velocity_verlet_step(work, b, dt, x, v, ext, grid, model, friction, g):
             ak = a0[b, i, k] + (ext[b, i, k] * im if ext is not None else 0.0)
             x[b, i, k] += dt * v[b, i, k] + 0.5 * dt * dt * ak
             vp[b, i, k] = v[b, i, k] + dt * ak
+    spin_predict(friction, b, dt)
     ok = accelerations(b, x, vp, a, None, grid, model, friction, g) and ok
+    spin_correct(friction, b, dt)
     for i in range(n):
         im = model.inv_mass[i]
         for k in range(D):
@@ -236,6 +269,7 @@ def rk4_step(work, b, dt, x, v, ext, grid, model, friction, g):
     a, xe, ve, sx, sv = work.a, work.xe, work.ve, work.sx, work.sv
     ok = accelerations(b, x, v, a, ext, grid, model, friction, g)
     h2 = 0.5 * dt
+    spin_rk4(friction, b, 0, h2)
     for i in range(n):
         for k in range(D):
             sx[b, i, k] = v[b, i, k]
@@ -246,6 +280,7 @@ def rk4_step(work, b, dt, x, v, ext, grid, model, friction, g):
         ok = accelerations(b, xe, ve, a, ext, grid, model, friction, g) and ok
         w = 2.0 if stage < 3 else 1.0
         hs = h2 if stage == 1 else dt
+        spin_rk4(friction, b, stage, hs)
         for i in range(n):
             for k in range(D):
                 sx[b, i, k] += w * ve[b, i, k]
@@ -258,6 +293,7 @@ def rk4_step(work, b, dt, x, v, ext, grid, model, friction, g):
         for k in range(D):
             x[b, i, k] += h6 * sx[b, i, k]
             v[b, i, k] += h6 * sv[b, i, k]
+    spin_rk4(friction, b, 4, -h6)
     return ok
 
 
@@ -342,6 +378,7 @@ def implicit_euler_step(work, b, dt, x, v, ext, grid, model, friction, g):
         for k in range(D):
             v[b, i, k] += dv[b, i, k]
             x[b, i, k] += dt * v[b, i, k]
+    spin_kick(friction, b, dt)  # the torque stays explicit, as friction does
     if not converged:
         work.cg_failed[b] = True
     return finite
@@ -438,6 +475,7 @@ def run_worlds(b0, b1, nsteps, dt, x, v, work, ext, grid, model, friction, g, st
         ok = True
         for _ in range(nsteps):
             ok = integrate(work, b, dt, x, v, ext, grid, model, friction, g)
+            spin_tick(friction, b)  # (nothing without rotation)
             advance_geometry(model, b, dt, len(g))  # kinematic shapes move on (nothing if none)
             if not ok:
                 break

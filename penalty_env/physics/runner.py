@@ -128,6 +128,7 @@ class Runner:
         grid: Any,
         status: np.ndarray,
         dt: float,
+        friction: Any = None,
     ) -> None:
         B, n, d = state.positions.shape
         self.path = path
@@ -142,7 +143,9 @@ class Runner:
         self.event_buffers = _events.allocate(B, n, d) if events else None
         self.lane_scratch = np.zeros((thread_count(), 5, n, d, _lanes.LANES)) if path == "lanes" else None
         self.lists = NeighbourLists(model, B, n, d, thread_count()) if path == "neighbour_list" else None
-        self.friction, self.g = model.friction, model.gravity  # as the kernels take them
+        # as the kernels take them: ``friction`` a rotating scene's Spin, else the model's (mu, kf) or None
+        self.friction = model.friction if friction is None else friction
+        self.g = model.gravity
         self._entries: dict[bool, Callable] = {}  # compiled step kernels, by whether ext is None
 
     def forget(self, worlds: Any = slice(None)) -> None:

@@ -21,11 +21,12 @@ from . import theory
 from .broadphase import GRID_MIN_BALLS, new_grid
 from .geometry import columns as _columns
 from .geometry import evaluate as _evaluate_shapes
-from .geometry import pose_columns
+from .geometry import geometry_shape_count, pose_columns
 from .integrators import INTEGRATORS, STATUS_CG, STATUS_NONFINITE, allocate_work
 from .lanes import LANES_MAX_BALLS, LANES_MIN_WORLDS
 from .model import Model, State
 from .neighbour_list import LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN
+from .rotation import TANGENTIAL, Spin, inertia_factor, new_spin
 from .runner import PATHS, Runner
 from .shapes import SDF, HeightField, Shape, is_static_round, pack_geometry, pack_terrain
 
@@ -42,6 +43,7 @@ __all__ = [
     "DAMPING_MODES",
     "BROADPHASES",
     "STEPPING",
+    "TANGENTIAL",
 ]
 
 # The guard allows dt <= theory.guard_dt of the stiffest contact: STABILITY_SAFETY x its critical dt,
@@ -54,6 +56,10 @@ BROADPHASES = ("all_pairs", "grid", "auto")
 STEPPING = ("auto",) + PATHS
 _EULERS = ("symplectic_euler", "explicit_euler")
 MAX_STEPS_PER_CALL = 2**62  # ``step(n)``: the kernels count steps in int64
+# the tangential springs' history is stored per ball pair and per ball and shape: refuse a scene
+# whose store would exceed this (the neighbour list, which would store it per listed pair, refuses
+# rotation for now)
+MAX_HISTORY_BYTES = 2 * 2**30
 
 
 def _probe_user(shape: Shape, x: np.ndarray) -> None:
@@ -112,7 +118,24 @@ class World:
             ``"no_tension"`` (the normal force is clipped at zero, as LAMMPS ``limit_damping``).
         mu, kf: regularised Coulomb friction |f_t| = min(kf |v_t|, mu |f_n|); off when mu = 0.
             ``kf`` (force per sliding speed) defaults to, and may not exceed, ``m_eff / dt`` of
-            the lightest contact: the explicit limit at which sliding stops in one step.
+            the lightest contact: the explicit limit at which sliding stops in one step (with
+            rotation, the tangential m_eff: 2/7 of it for spheres, 1/3 for disks).
+        rotation: balls spin (docs/physics.md, "Rotation"): each has an angular velocity
+            (``angular_velocities``: 3 components in 3D, 1 in 2D) and the inertia of a solid
+            sphere (2/5 m r^2) or disk (1/2 m r^2); the tangential force acts at the contact
+            point and exerts a torque. Scalar stepping only (``stepping`` ``auto`` or ``scalar``),
+            without ``events``. Off by default: then nothing of it is compiled or paid for.
+        tangential: ``"coulomb"`` (the regularised friction above) or ``"history"`` (a tangential
+            spring per contact, carried from step to step and capped at mu |f_n|, Cundall-Strack as
+            LAMMPS ``gran/hooke/history``: a contact below the cap sticks instead of creeping;
+            symplectic or explicit Euler, which advance it once per step; scalar stepping; with
+            ``rotation=False`` the balls slide without spinning, as pucks).
+        kt, kd_t: the history model's spring (force/length, default 2/7 ks) and dashpot (force
+            per sliding speed, default kd / 2), as LAMMPS's defaults for Kt and gamma_t.
+        mu_r, kr: rolling resistance (with rotation; off when mu_r = 0): a torque against rolling
+            of at most mu_r R* |f_n| (Ai et al. 2011, model A), regularised as the friction is:
+            |M_r| = min(kr |w_r|, mu_r R* |f_n|); ``kr`` (torque per angular speed) defaults to,
+            and may not exceed, the lightest contact's I_eff / dt.
         integrator: ``explicit_euler``, ``symplectic_euler``, ``velocity_verlet``, ``rk4`` or
             ``implicit_euler`` (linearised backward Euler, conjugate gradients).
         dt: time step (> 0).
@@ -157,6 +180,12 @@ class World:
         stepping: str = "auto",
         allow_unstable: bool = False,
         events: bool = False,
+        rotation: bool = False,
+        tangential: str = "coulomb",
+        kt: float | None = None,
+        kd_t: float | None = None,
+        mu_r: float = 0.0,
+        kr: float | None = None,
     ) -> None:
         x = V.real_array("positions", positions, ndim=(2, 3))
         self._batched = x.ndim == 3
@@ -229,6 +258,23 @@ class World:
         stepping = V.choice("stepping", stepping, STEPPING)
         self.allow_unstable = V.flag("allow_unstable", allow_unstable)
         self.events = V.flag("events", events)
+        self.rotation = V.flag("rotation", rotation)
+        self.tangential = V.choice("tangential", tangential, TANGENTIAL)
+        self.mu_r = V.non_negative("mu_r", mu_r)
+        if not self.rotation and self.mu_r != 0.0:
+            raise ValueError(
+                f"mu_r={self.mu_r!r} needs rotation=True (rolling resistance acts on the balls' spin); pass "
+                "rotation=True or leave mu_r at 0"
+            )
+        # the rotating contact law: with rotation, or for the history model on balls that slide
+        self._spinning = self.rotation or self.tangential == "history"
+        if self._spinning and self.events:
+            raise ValueError("events=True does not support rotation=True or tangential='history' yet: use events=False")
+        if self.tangential == "history" and self.integrator not in _EULERS:  # (checked before the path)
+            raise ValueError(
+                f"tangential='history' advances each contact's spring once per step, which needs an integrator "
+                f"with one force pass per step: symplectic_euler or explicit_euler (got {self.integrator!r})"
+            )
         if self.integrator == "implicit_euler" and self.damping == "no_tension":
             # its frozen-contact Jacobian cannot see the clip: the solve would pull separating
             # balls together, which is what no_tension exists to prevent
@@ -240,19 +286,57 @@ class World:
         # it brings sliding to rest without overshoot only while kf dt / m_eff <= 1 (at 2 it
         # reverses v_t every step and feeds energy in). The default sits at that limit, which is
         # the closest a regularised law gets to Coulomb's stick at this dt.
-        self.kf_max = self._lightest_contact_mass() / self.dt
+        self.kf_max = self._lightest_tangential_mass() / self.dt
         if kf is None:
             kf = self.kf_max
         self.kf = V.positive("kf", kf)
         if self.mu > 0.0 and self.kf > self.kf_max * (1.0 + 1e-12) and not self.allow_unstable:
             raise ValueError(
                 f"kf={self.kf:g} is above the explicit friction limit m_eff/dt = {self.kf_max:g} "
-                f"(lightest contact m_eff={self._lightest_contact_mass():g}, dt={self.dt:g}): sliding would "
-                f"overshoot and gain energy. Use kf <= {self.kf_max:g}, a smaller dt, or allow_unstable=True."
+                f"(lightest contact {'tangential ' if self.rotation else ''}m_eff={self._lightest_tangential_mass():g}, "
+                f"dt={self.dt:g}): sliding would overshoot and gain energy. Use kf <= {self.kf_max:g}, a smaller dt, "
+                "or allow_unstable=True."
+            )
+        self.kt = 2.0 / 7.0 * self.ks if kt is None else V.positive("kt", kt)
+        self.kd_t = 0.5 * self.kd if kd_t is None else V.non_negative("kd_t", kd_t)
+        self.kr_max = self._lightest_inertia() / self.dt if self.rotation else math.inf
+        self.kr = (self.kr_max if kr is None else V.positive("kr", kr)) if self.rotation else 0.0
+        if self.mu_r > 0.0 and self.kr > self.kr_max * (1.0 + 1e-12) and not self.allow_unstable:
+            raise ValueError(
+                f"kr={self.kr:g} is above the explicit rolling-resistance limit I_eff/dt = {self.kr_max:g} "
+                f"(lightest contact I_eff={self._lightest_inertia():g}, dt={self.dt:g}): rolling would overshoot "
+                f"and gain energy. Use kr <= {self.kr_max:g}, a smaller dt, or allow_unstable=True."
             )
 
         self.use_grid = self.broadphase == "grid" or (self.broadphase == "auto" and n >= GRID_MIN_BALLS)
         self.stepping = self._stepping_path(stepping, B, n)
+        self._spin: Spin | None = None
+        if self._spinning:
+            slots = len(legacy) + geometry_shape_count(geometry)
+            history = self.tangential == "history" and self.mu > 0.0
+            need = B * n * (n + slots) * 32 if history else 0
+            if need > MAX_HISTORY_BYTES:
+                raise ValueError(
+                    f"tangential='history' stores a spring per ball pair and per ball and shape: {B} worlds of {n} "
+                    f"balls would need {need / 2**30:.3g} GiB, above {MAX_HISTORY_BYTES / 2**30:g} GiB; use fewer "
+                    "balls per world, or tangential='coulomb'"
+                )
+            self._spin = new_spin(
+                B,
+                n,
+                d,
+                self.masses,
+                self.radii,
+                slots,
+                rotation=self.rotation,
+                mu=self.mu,
+                kf=self.kf,
+                kt=self.kt if history else 0.0,
+                kd_t=self.kd_t,
+                mu_r=self.mu_r,
+                kr=self.kr,
+                dt=self.dt,
+            )
         self._model = Model(
             radii=self.radii,
             inv_mass=1.0 / self.masses,
@@ -288,6 +372,7 @@ class World:
             self._grid,
             self._status,
             self.dt,
+            friction=self._spin,
         )
 
         self.dt_max = self.stability_limit()
@@ -308,8 +393,13 @@ class World:
                 "use events=False (and a smaller dt for the same accuracy)"
             )
         euler = self.integrator in _EULERS
+        if self._spinning and stepping in ("lanes", "neighbour_list"):
+            raise ValueError(
+                f"stepping={stepping!r} does not support rotation=True or tangential='history' yet: use "
+                "stepping='scalar' or 'auto'"
+            )
         if stepping == "auto":
-            if self.events:
+            if self.events or self._spinning:
                 return "scalar"
             if n >= LARGE_WORLD_MIN_BALLS and self.use_grid and euler:
                 return "neighbour_list"
@@ -341,6 +431,32 @@ class World:
         pair = theory.effective_mass(m[0], m[1]) if m.size >= 2 else math.inf
         return float(min(pair, m[0]))
 
+    def _lightest_tangential_mass(self) -> float:
+        """The smallest effective mass a tangential force sees: m_eff, or with rotation
+        1 / sum(1/m + r^2/I) = m_eff c / (1 + c), c = I / (m r^2)."""
+        if not self.rotation:
+            return self._lightest_contact_mass()
+        c = inertia_factor(len(self.gravity))
+        return self._lightest_contact_mass() * c / (1.0 + c)
+
+    def _lightest_inertia(self) -> float:
+        """The smallest effective moment of inertia of a contact (pair: 1 / (1/I_i + 1/I_j))."""
+        inertia = np.sort(inertia_factor(len(self.gravity)) * self.masses * self.radii**2)
+        pair = theory.effective_mass(inertia[0], inertia[1]) if inertia.size >= 2 else math.inf
+        return float(min(pair, inertia[0]))
+
+    def _tangential_springs(self) -> list[tuple[str, float, float, float]]:
+        """(label, kt, kd_t, tangential m_eff) of the extreme contacts' tangential springs (the
+        history model), which the guard holds to the same limit as a normal spring."""
+        if self._spin is None or self._spin.kt <= 0.0:
+            return []
+        c = inertia_factor(self.dim)
+        share = c / (1.0 + c) if self.rotation else 1.0
+        return [
+            (f"{label} tangential spring", self.kt, self.kd_t, me * share)
+            for label, _, _, me in self._stiffest_contacts()
+        ]
+
     def _stiffest_contacts(self) -> list[tuple[str, float, float, float]]:
         """(label, ks, kd, m_eff) of the extreme contacts this scene can form."""
         m = np.sort(self.masses)
@@ -359,7 +475,8 @@ class World:
         mode, twice the frequency and twice the damping ratio, must be stable too); inf when the
         scene can form no contact or the integrator is implicit; 0 for explicit Euler on undamped
         contacts (unstable at any dt)."""
-        limits = [theory.guard_dt(self.integrator, ks, kd, me) for _, ks, kd, me in self._stiffest_contacts()]
+        springs = self._stiffest_contacts() + self._tangential_springs()
+        limits = [theory.guard_dt(self.integrator, ks, kd, me) for _, ks, kd, me in springs]
         return min(limits) if limits else math.inf
 
     def energy_limit(self) -> float:
@@ -388,7 +505,8 @@ class World:
         )
 
     def _stability_message(self) -> str:
-        worst = min(self._stiffest_contacts(), key=lambda c: theory.guard_dt(self.integrator, c[1], c[2], c[3]))
+        springs = self._stiffest_contacts() + self._tangential_springs()
+        worst = min(springs, key=lambda c: theory.guard_dt(self.integrator, c[1], c[2], c[3]))
         label, ks, kd, me = worst
         omega = theory.natural_frequency(ks, me)
         zeta = theory.damping_ratio(ks, kd, me)
@@ -512,9 +630,25 @@ class World:
     def velocities(self, value: Any) -> None:
         self.set_state(velocities=value)
 
-    def set_state(self, positions: Any = None, velocities: Any = None, worlds: Any = None) -> None:
-        """Overwrite positions and/or velocities, of all worlds or of the worlds indexed by
-        ``worlds`` (then the arrays are ``(len(worlds), n, d)``)."""
+    @property
+    def angular_velocities(self) -> np.ndarray:
+        """Current angular velocities, ``(n, 3)`` in 3D and ``(n, 1)`` in 2D (about the axis out of
+        the plane), ``(B, n, .)`` when batched (read-only view; zeros when ``rotation=False``)."""
+        if self._spin is None:
+            R = 3 if self.dim == 3 else 1
+            return self._view(np.zeros(self._state.positions.shape[:2] + (R,)))
+        return self._view(self._spin.w)  # (zeros without rotation: 1 / I = 0 keeps them so)
+
+    @angular_velocities.setter
+    def angular_velocities(self, value: Any) -> None:
+        self.set_state(angular_velocities=value)
+
+    def set_state(
+        self, positions: Any = None, velocities: Any = None, worlds: Any = None, angular_velocities: Any = None
+    ) -> None:
+        """Overwrite positions, velocities and/or (with rotation) angular velocities, of all worlds or
+        of the worlds indexed by ``worlds`` (then the arrays are ``(len(worlds), n, .)``). New
+        positions end every contact's tangential history in those worlds."""
         if worlds is not None and np.asarray(worlds).dtype.kind not in "iu":
             raise ValueError(f"worlds must be integer world indices, got dtype {np.asarray(worlds).dtype}")
         chosen = np.arange(self.n_worlds) if worlds is None else np.atleast_1d(np.asarray(worlds, dtype=np.int64))
@@ -523,19 +657,29 @@ class World:
         idx: Any = slice(None) if worlds is None else chosen
         x = self._state.positions
         target = (chosen.size,) + x.shape[1:]
-        for name, value, dest in (("positions", positions, x), ("velocities", velocities, self._state.velocities)):
+        if angular_velocities is not None and not self.rotation:
+            raise ValueError(
+                "angular_velocities: this World has rotation=False (its balls do not spin); pass rotation=True"
+            )
+        items = [("positions", positions, x), ("velocities", velocities, self._state.velocities)]
+        if self.rotation and self._spin is not None:
+            items.append(("angular_velocities", angular_velocities, self._spin.w))
+        for name, value, dest in items:
             if value is None:
                 continue
             arr = V.real_array(name, value)
             if not self._batched and worlds is None:
                 arr = arr[None] if arr.ndim == 2 else arr
-            if arr.shape != target:
+            want = target[:2] + dest.shape[2:]
+            if arr.shape != want:
                 raise ValueError(
-                    f"{name} must have shape {target if self._batched or worlds is not None else target[1:]}, got {np.shape(value)}"
+                    f"{name} must have shape {want if self._batched or worlds is not None else want[1:]}, got {np.shape(value)}"
                 )
             dest[idx] = arr
         if positions is not None:
             self._check_start(chosen.astype(np.int64))
+            if self._spin is not None:
+                self._spin.clock[idx] += 2  # every stamp is now stale: no contact continues
         self._runner.forget(idx)
 
     # ---------------------------------------------------------------- terrain poses
@@ -813,9 +957,18 @@ class World:
         return out.copy() if self._batched else float(out[0])
 
     def energy(self) -> Any:
-        """Kinetic + gravitational + penalty-spring potential (1/2 ks overlap^2), per world."""
+        """Kinetic + gravitational + penalty-spring potential (1/2 ks overlap^2), per world; with
+        rotation also the rotational kinetic energy (1/2 I w^2) and the tangential springs' (1/2 kt
+        xi^2, the history model)."""
         x, v = self._state
         _diagnostics.world_energy(x, v, self._grid, self._model, self.gravity, self._scalar)
+        if self._spin is not None:
+            sp = self._spin
+            if self.rotation:
+                self._scalar += 0.5 * np.einsum("bnk,bnk,n->b", sp.w, sp.w, 1.0 / sp.inv_inertia)
+            if sp.kt > 0.0:
+                live = sp.stamp == sp.clock[:, None, None]
+                self._scalar += 0.5 * sp.kt * np.einsum("bij,bijk,bijk->b", live, sp.hist, sp.hist)
         return self._per_world(self._scalar)
 
     def max_penetration(self) -> Any:
@@ -829,9 +982,24 @@ class World:
         p = np.einsum("bnd,n->bd", self._state.velocities, self.masses)
         return p if self._batched else p[0]
 
+    def angular_momentum(self) -> np.ndarray:
+        """Total angular momentum about the origin per world, sum of m x cross v + I w: ``(3,)`` in
+        3D, ``(1,)`` in 2D (about the axis out of the plane), ``(B, .)`` when batched."""
+        x, v = self._state
+        m = self.masses[None, :, None]
+        if self.dim == 3:
+            L = np.cross(x, m * v).sum(axis=1)
+        else:
+            L = (x[..., 0] * v[..., 1] - x[..., 1] * v[..., 0])[..., None] * m
+            L = L.sum(axis=1)
+        if self.rotation and self._spin is not None:
+            L = L + np.einsum("bnk,n->bk", self._spin.w, 1.0 / self._spin.inv_inertia)
+        return L if self._batched else L[0]
+
     def __repr__(self) -> str:
         return (
             f"World(B={self.n_worlds}, n={self.n_balls}, d={self.dim}, integrator={self.integrator!r}, "
             f"dt={self.dt:g}, broadphase={'grid' if self.use_grid else 'all_pairs'}, stepping={self.stepping!r}, "
+            f"{'rotation=True, ' if self.rotation else ''}"
             f"terrain={len(self.terrain)} shapes)"
         )

@@ -84,10 +84,12 @@ def test_gymnasium_env_checker_passes_without_warnings(env_id, n_obstacles):
 def test_sb3_env_checker_passes_without_warnings(env_id, n_obstacles):
     from stable_baselines3.common.env_checker import check_env
 
+    single = gym.make(env_id, n_obstacles=n_obstacles).unwrapped
+    wrapped = gym.make(env_id, n_obstacles=n_obstacles)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        check_env(gym.make(env_id, n_obstacles=n_obstacles).unwrapped, warn=True)
-        check_env(gym.make(env_id, n_obstacles=n_obstacles), warn=True)
+        check_env(single, warn=True)
+        check_env(wrapped, warn=True)
 
 
 # ------------------------------------------------------------------------------ API and types

@@ -31,7 +31,7 @@ def _reference(scene):
     return np.minimum(np.maximum(raw, lay.low), lay.high).astype(np.float32)
 
 
-@pytest.mark.parametrize("env_id", ["PenaltyBalls-v0", "PenaltyBalls2D-v0"])
+@pytest.mark.parametrize("env_id", ["PenaltyBalls-v0", "PenaltyBalls2D-v0", "PenaltyBalls-v1"])
 @pytest.mark.parametrize("n_obstacles", [0, 1])
 def test_kernel_observation_follows_the_layout_table(env_id, n_obstacles):
     venv = gym.make_vec(env_id, num_envs=32, n_obstacles=n_obstacles)
