@@ -508,11 +508,13 @@ class World:
         springs = self._stiffest_contacts() + self._tangential_springs()
         worst = min(springs, key=lambda c: theory.guard_dt(self.integrator, c[1], c[2], c[3]))
         label, ks, kd, me = worst
+        spring = label.endswith("tangential spring")  # the history model's kt and kd_t
         omega = theory.natural_frequency(ks, me)
         zeta = theory.damping_ratio(ks, kd, me)
         head = (
             f"dt={self.dt:g} is above the stability limit of {self.integrator} for the stiffest "
-            f"{label} contact (ks={ks:g}, kd={kd + 0.0:g}, m_eff={me:g}: omega*dt={omega * self.dt:.3g}, zeta={zeta:.3g})"
+            f"{label} contact ({'kt' if spring else 'ks'}={ks:g}, {'kd_t' if spring else 'kd'}={kd + 0.0:g}, "
+            f"m_eff={me:g}: omega*dt={omega * self.dt:.3g}, zeta={zeta:.3g})"
         )
         if self.dt_max <= 0.0:
             return (
