@@ -1,7 +1,8 @@
 """penalty_env: a Numba penalty-contact particle core and the PenaltyBalls Gymnasium environments.
 
 Importing the package registers ``PenaltyBalls-v0`` (3D) and ``PenaltyBalls2D-v0`` with
-Gymnasium, and their ``-v1`` (the balls roll), all with a native vector entry point. Registration stores import paths only, so this
+Gymnasium, their ``-v1`` (the balls roll), and ``PenaltyBallsSand-v0`` / ``PenaltyBallsSand2D-v0``
+(v1 with a bed of sand grains in the bowl), all with a native vector entry point. Registration stores import paths only, so this
 import stays cheap: the environments (and Numba) load when an env is first made.
 """
 
@@ -20,17 +21,26 @@ _MAX_EPISODE_STEPS = 150  # penalty_env.envs.penalty_balls.MAX_EPISODE_STEPS (ke
 warnings.filterwarnings(
     "ignore", message=r".*The environment PenaltyBalls(2D)?-v0 is out of date", category=DeprecationWarning
 )
-for _id, _dim, _physics in (
-    ("PenaltyBalls-v0", 3, "sliding"),
-    ("PenaltyBalls2D-v0", 2, "sliding"),
-    ("PenaltyBalls-v1", 3, "rolling"),
-    ("PenaltyBalls2D-v1", 2, "rolling"),
+# Sand: v1's rolling physics with a settled bed of grains in the bowl (penalty_env.envs.scene's
+# SAND_GRAINS: 300 in 3D, 40 in 2D).
+for _id, _dim, _physics, _grains in (
+    ("PenaltyBalls-v0", 3, "sliding", 0),
+    ("PenaltyBalls2D-v0", 2, "sliding", 0),
+    ("PenaltyBalls-v1", 3, "rolling", 0),
+    ("PenaltyBalls2D-v1", 2, "rolling", 0),
+    ("PenaltyBallsSand-v0", 3, "rolling", 300),
+    ("PenaltyBallsSand2D-v0", 2, "rolling", 40),
 ):
     if _id not in registry:
+        _kwargs: dict = {"dim": _dim}
+        if _physics != "sliding":
+            _kwargs["physics"] = _physics
+        if _grains:
+            _kwargs["grains"] = _grains
         register(
             id=_id,
             entry_point=f"{_ENVS}:PenaltyBallsEnv",
             vector_entry_point=f"{_ENVS}:PenaltyBallsVectorEnv",
             max_episode_steps=_MAX_EPISODE_STEPS,
-            kwargs={"dim": _dim} if _physics == "sliding" else {"dim": _dim, "physics": _physics},
+            kwargs=_kwargs,
         )

@@ -30,7 +30,14 @@ from .envs.scene import PenaltyBallsScene, coerce_action, render_fps
 
 __all__ = ["PenaltyBallsVecEnv", "make_vec_env"]
 
-_ENV_IDS = ("PenaltyBalls-v0", "PenaltyBalls2D-v0", "PenaltyBalls-v1", "PenaltyBalls2D-v1")
+_ENV_IDS = (
+    "PenaltyBalls-v0",
+    "PenaltyBalls2D-v0",
+    "PenaltyBalls-v1",
+    "PenaltyBalls2D-v1",
+    "PenaltyBallsSand-v0",
+    "PenaltyBallsSand2D-v0",
+)
 
 
 class PenaltyBallsVecEnv(VecEnv):

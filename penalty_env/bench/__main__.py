@@ -1,4 +1,4 @@
-"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,ab,shapes} [options]``."""
+"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,ab,shapes,granular,scale} [options]``."""
 
 from __future__ import annotations
 
@@ -15,6 +15,8 @@ COMMANDS = {
     "figures": "penalty_env.bench.figures",
     "ab": "penalty_env.bench.ab",
     "shapes": "penalty_env.bench.shapes",
+    "granular": "penalty_env.bench.granular",
+    "scale": "penalty_env.bench.scale",
 }
 
 

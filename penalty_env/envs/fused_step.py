@@ -23,12 +23,22 @@ from numba.extending import overload
 
 from .._jit import njit
 from ..physics import lanes as L
-from ..physics.broadphase import contacts
+from ..physics.broadphase import build_grid, contacts
 from ..physics.contact import MAXPEN
 from ..physics.integrators import final_status, symplectic_euler_into
 from ..physics.rotation import is_spin, spin_tick
 
-__all__ = ["TaskParams", "StepBuffers", "INFO_KEYS", "new_buffers", "step_worlds", "first_bad_action", "OK"]
+__all__ = [
+    "TaskParams",
+    "StepBuffers",
+    "HeightMap",
+    "INFO_KEYS",
+    "new_buffers",
+    "step_worlds",
+    "step_sand_worlds",
+    "first_bad_action",
+    "OK",
+]
 
 # the info dict's keys, in order (every key a StepBuffers field of that name; is_success <- success)
 INFO_KEYS = (
@@ -58,6 +68,17 @@ class TaskParams(NamedTuple):
     success_bonus: float
     goal_tolerance: float  # success radius, m
     push_offset: float  # pusher radius + ball radius: the push point's distance behind the ball
+
+
+class HeightMap(NamedTuple):
+    """The sand's height map around the ball (scenes with grains): its constants."""
+
+    first: int  # the first grain's index (the bodies come before)
+    cells: int  # cells per horizontal axis
+    cell: float  # their edge, m
+    bowl_radius: float  # the floor: the bowl of this radius (its bottom at the origin), or flat (0)
+    offset: int  # where the map starts in the observation
+    top: float  # the depth's upper bound (2 R)
 
 
 # rows of StepBuffers.info (in INFO_KEYS order); only this module indexes them, readers use the
@@ -136,7 +157,7 @@ def observe(b, x, v, goal, obs, table, bounds, D):
     world-step, 7% of the fused kernel."""
     lo = bounds[0]
     hi = bounds[1]
-    n = x.shape[1]
+    n = 2 + (table.shape[0] - 7) // 2  # the bodies: pusher, ball, obstacles (grains follow them)
     for k in range(D):
         obs[b, k] = _clip(x[b, 0, k], lo[k], hi[k])
         obs[b, D + k] = _clip(v[b, 0, k], lo[D + k], hi[D + k])
@@ -194,31 +215,39 @@ def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, st
     return L.store_block(ids, 0, W, x, v, X, V, status, g)
 
 
-@njit
-def _spin_block(ids, W, act, x, v, S, model, spin, dt, substeps, task, status, g):
-    """Advance the W worlds ``ids[:W]`` by one control period with rotation (``physics="rolling"``):
-    the core's scalar symplectic Euler step with the rotating contact law, world by world (the
-    SIMD-lanes twin does not rotate). ``S`` is ``(a, ext)``, (B, n, D) each, shared by the threads
-    (each world's rows are its own). The motor is :func:`_physics_block`'s. Returns the number of
-    blown-up worlds."""
+@njit(inline="always")
+def _scalar_world(b, act, x, v, S, grid, model, friction, dt, substeps, task, g):
+    """Advance world b by one control period with the core's scalar symplectic Euler step
+    (``grid``: the grid broad phase, or None for all pairs); the motor is :func:`_physics_block`'s.
+    ``S`` is ``(a, ext)``, (B, n, D) each, shared by the threads (each world's rows are its own).
+    Returns the world's status (0: finite)."""
     A, E = S
     na = act.shape[1]
     fmax = task.max_force
     inv_vmax = 1.0 / task.max_speed
+    scale = _throttle_scale(act, b, na)
+    for i in range(E.shape[1]):
+        for k in range(E.shape[2]):
+            E[b, i, k] = 0.0
+    ok = True
+    for _ in range(substeps):
+        for k in range(na):
+            E[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) * scale - v[b, 0, k] * inv_vmax)
+        ok = symplectic_euler_into(A, b, dt, x, v, E, grid, model, friction, g) and ok
+        spin_tick(friction, b)
+    return final_status(b, ok, x, v, g)
+
+
+@njit
+def _spin_block(ids, W, act, x, v, S, model, spin, dt, substeps, task, status, g):
+    """Advance the W worlds ``ids[:W]`` by one control period with rotation (``physics="rolling"``):
+    the core's scalar symplectic Euler step with the rotating contact law, world by world
+    (:func:`_scalar_world`, all pairs; the SIMD-lanes twin does not rotate). Returns the number of
+    blown-up worlds."""
     bad = 0
     for w in range(W):
         b = ids[w]
-        scale = _throttle_scale(act, b, na)
-        for i in range(E.shape[1]):
-            for k in range(E.shape[2]):
-                E[b, i, k] = 0.0
-        ok = True
-        for _ in range(substeps):
-            for k in range(na):
-                E[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) * scale - v[b, 0, k] * inv_vmax)
-            ok = symplectic_euler_into(A, b, dt, x, v, E, None, model, spin, g) and ok
-            spin_tick(spin, b)
-        st = final_status(b, ok, x, v, g)
+        st = _scalar_world(b, act, x, v, S, None, model, spin, dt, substeps, task, g)
         status[b] = st
         if st != 0:
             bad += 1
@@ -246,6 +275,18 @@ def _physics_block_choice(ids, W, act, x, v, S, model, friction, dt, substeps, t
     return sliding
 
 
+@njit(inline="always")
+def _refuse_bad_action(worlds, act, stepping):
+    """-(1 + b) for the first stepping world b of ``worlds`` whose action is NaN or inf, else 0."""
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        if stepping[b]:
+            for k in range(act.shape[1]):
+                if not np.isfinite(act[b, k]):
+                    return -(1 + b)
+    return 0
+
+
 @njit(nogil=True)
 def step_worlds(
     worlds, act, stepping, x, v, scratch, ids, model, friction, g, dt, substeps, task, table, bounds, goal, buf
@@ -257,15 +298,10 @@ def step_worlds(
     ``scratch`` :func:`_spin_block`'s buffers (:func:`physics_block`). ``table``, ``bounds``: the
     observation layout and its bounds."""
     n_lanes = ids.shape[0]
-    na = act.shape[1]
     status = buf.status
-    # refuse a non-finite action before anything moves
-    for t in range(worlds.shape[0]):
-        b = worlds[t]
-        if stepping[b]:
-            for k in range(na):
-                if not np.isfinite(act[b, k]):
-                    return -(1 + b)
+    refused = _refuse_bad_action(worlds, act, stepping)  # before anything moves
+    if refused < 0:
+        return refused
     D = len(g)
     # physics: the stepping worlds, LANES at a time
     bad = 0
@@ -292,26 +328,34 @@ def step_worlds(
         info[_R_OVERLAP, b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, None, model, None, g)
         info[_R_DISTANCE, b] = dg
         info[_R_PUSHER, b] = dp
-        prev = buf.prev
-        if stepping[b]:
-            success = dg < task.goal_tolerance
-            r_goal = task.w_goal * (prev[0, b] - dg)
-            r_reach = task.w_reach * (prev[1, b] - dp)
-            r_success = task.success_bonus if success else 0.0
-            info[_R_GOAL, b] = r_goal
-            info[_R_REACH, b] = r_reach
-            info[_R_SUCCESS, b] = r_success
-            buf.reward[b] = r_goal + r_reach + r_success
-            buf.success[b] = success
-        else:  # a world just reset: its observation, no reward
-            info[_R_GOAL, b] = 0.0
-            info[_R_REACH, b] = 0.0
-            info[_R_SUCCESS, b] = 0.0
-            buf.reward[b] = 0.0
-            buf.success[b] = False
-        prev[0, b] = dg
-        prev[1, b] = dp
+        _reward(b, stepping[b], dg, dp, task, buf)
     return bad
+
+
+@njit(inline="always")
+def _reward(b, stepped, dg, dp, task, buf):
+    """World b's reward terms, success and shaping potentials from its distances ``dg`` (ball to
+    goal) and ``dp`` (pusher to push point); a world just reset (not ``stepped``) gets no reward."""
+    info = buf.info
+    prev = buf.prev
+    if stepped:
+        success = dg < task.goal_tolerance
+        r_goal = task.w_goal * (prev[0, b] - dg)
+        r_reach = task.w_reach * (prev[1, b] - dp)
+        r_success = task.success_bonus if success else 0.0
+        info[_R_GOAL, b] = r_goal
+        info[_R_REACH, b] = r_reach
+        info[_R_SUCCESS, b] = r_success
+        buf.reward[b] = r_goal + r_reach + r_success
+        buf.success[b] = success
+    else:  # a world just reset: its observation, no reward
+        info[_R_GOAL, b] = 0.0
+        info[_R_REACH, b] = 0.0
+        info[_R_SUCCESS, b] = 0.0
+        buf.reward[b] = 0.0
+        buf.success[b] = False
+    prev[0, b] = dg
+    prev[1, b] = dp
 
 
 @njit(nogil=True)
@@ -325,3 +369,71 @@ def first_bad_action(act, skip):
             if not np.isfinite(act[b, k]):
                 return b
     return -1
+
+
+@njit(inline="always")
+def observe_sand(b, x, model, obs, hm, D):
+    """World b's sand height map into its observation: in each of the ``hm.cells``^(D-1) cells of
+    edge ``hm.cell`` centred on the ball (row-major: x, then y), the depth of the sand there, the
+    highest grain top (z + r) above the bare floor under that grain (0 where there is none),
+    clipped to ``hm.top``. One pass over the grains (a non-finite position is skipped)."""
+    H = hm.cells
+    size = H ** (D - 1)
+    for c in range(size):
+        obs[b, hm.offset + c] = 0.0
+    width = H * hm.cell
+    inv = 1.0 / hm.cell
+    R = hm.bowl_radius
+    for i in range(hm.first, x.shape[1]):
+        u = x[b, i, 0] - x[b, 1, 0] + 0.5 * width
+        w = x[b, i, 1] - x[b, 1, 1] + 0.5 * width if D == 3 else 0.0
+        if not (u >= 0.0 and u < width and w >= 0.0 and w < width):
+            continue
+        c = min(int(u * inv), H - 1)
+        if D == 3:
+            c = c * H + min(int(w * inv), H - 1)
+        rho2 = x[b, i, 0] * x[b, i, 0] + (x[b, i, 1] * x[b, i, 1] if D == 3 else 0.0)
+        floor = R - np.sqrt(max(R * R - rho2, 0.0)) if R > 0.0 else 0.0
+        depth = min(x[b, i, D - 1] + model.radii[i] - floor, hm.top)
+        if depth > obs[b, hm.offset + c]:
+            obs[b, hm.offset + c] = depth
+
+
+@njit(nogil=True)
+def step_sand_worlds(
+    worlds, act, stepping, x, v, scratch, grid, model, friction, g, dt, substeps, task, table, bounds, goal, buf, hm
+):
+    """:func:`step_worlds` for a scene with grains: each world advanced by the core's scalar
+    symplectic Euler step through its own row of ``grid`` (the World's grid broad phase;
+    :func:`_scalar_world`), the observation completed by the sand's height map
+    (:func:`observe_sand`), and the goal reached horizontally (the sand's surface moves: the
+    ball-goal and pusher-push point distances are over the horizontal axes). ``max_overlap``
+    goes over every contact, grains included, through the grid."""
+    status = buf.status
+    refused = _refuse_bad_action(worlds, act, stepping)
+    if refused < 0:
+        return refused
+    D = len(g)
+    bad = 0
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        status[b] = 0
+        if stepping[b]:
+            st = _scalar_world(b, act, x, v, scratch, grid, model, friction, dt, substeps, task, g)
+            status[b] = st
+            if st != 0:
+                bad += 1
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        if status[b] != 0:
+            continue
+        dg, dp = _distances(b, x, goal, task, D - 1)  # horizontal
+        observe(b, x, v, goal, buf.obs, table, bounds, D)
+        observe_sand(b, x, model, buf.obs, hm, D)
+        info = buf.info
+        build_grid(b, x, grid, model, g)  # for the positions now (the last substep moved them)
+        info[_R_OVERLAP, b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, grid, model, None, g)
+        info[_R_DISTANCE, b] = dg
+        info[_R_PUSHER, b] = dp
+        _reward(b, stepping[b], dg, dp, task, buf)
+    return bad

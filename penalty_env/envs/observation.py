@@ -53,10 +53,22 @@ class ObservationLayout:
     differences +-2R.
     """
 
-    def __init__(self, dim: int, n_obstacles: int, pos_bound: float, vel_bound: float) -> None:
+    def __init__(
+        self,
+        dim: int,
+        n_obstacles: int,
+        pos_bound: float,
+        vel_bound: float,
+        heightmap: tuple[int, float] | None = None,
+    ) -> None:
         self.dim = int(dim)
         self.fields = _fields(int(n_obstacles))
-        self.size = len(self.fields) * self.dim
+        # with sand, after the fields: the sand's depth in (cells, edge) cells around the ball
+        # (cells^(d-1) entries, row-major: x, then y), each in 0..2R
+        self.heightmap = heightmap
+        self.heightmap_offset = len(self.fields) * self.dim
+        self.heightmap_size = 0 if heightmap is None else int(heightmap[0]) ** (self.dim - 1)
+        self.size = self.heightmap_offset + self.heightmap_size
         self.pos_bound = float(pos_bound)
         self.vel_bound = float(vel_bound)
         # the kernel's copy of the table: one row (kind, a, b) per field
@@ -88,6 +100,8 @@ class ObservationLayout:
             else:
                 low.append(-rel)
                 high.append(rel)
+        low.append(np.zeros(self.heightmap_size))
+        high.append(np.full(self.heightmap_size, 2.0 * pb))
         return np.concatenate(low), np.concatenate(high)
 
     def markdown(self) -> str:
@@ -100,4 +114,13 @@ class ObservationLayout:
                 DIFFERENCE: ("-2R", "2R"),
             }[f.kind]
             rows.append(f"| {k * self.dim} : {(k + 1) * self.dim} | {f.name} | {lo} | {hi} |")
+        if self.heightmap is not None:
+            cells, edge = self.heightmap
+            grid = f"{cells} x {cells}" if self.dim == 3 else f"{cells}"
+            order = " (row-major: x, then y)" if self.dim == 3 else " (along x)"
+            rows.append(
+                f"| {self.heightmap_offset} : {self.size} | sand depth in {grid} cells of {edge:g} m centred on "
+                f"the ball{order}: the highest grain top in the cell above the bare floor under that grain, 0 "
+                f"if none | 0 | 2R |"
+            )
         return "\n".join(rows)

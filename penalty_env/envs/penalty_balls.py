@@ -112,6 +112,10 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
 
     `v_bound = max(10 max_speed, sqrt(4 g R))` (the speed of a fall through the bowl's height).
 
+    With sand (`grains > 0`, the `PenaltyBallsSand` ids) the grains are not observed one by one:
+    after these fields comes the sand's height map around the ball, `5^(d-1)` entries (25 in 3D,
+    5 in 2D; see "Sand"), so the size stays fixed whatever the grain count.
+
     ## Rewards
 
     Dense, potential-based shaping plus a success bonus. `distance` is the ball-goal distance;
@@ -146,7 +150,8 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Episode End
 
-    1. Termination (success): the ball's centre is within `goal_tolerance` (0.1 m) of the goal.
+    1. Termination (success): the ball's centre is within `goal_tolerance` (0.1 m) of the goal
+       (with sand: horizontally, see "Sand").
     2. Truncation: 150 steps (6 s of simulated time), from the registered `max_episode_steps`.
 
     `terminated` and `truncated` are Python bools. A uniformly random policy almost never
@@ -207,6 +212,38 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     section 1. The shapes themselves are
     `penalty_env.physics` shapes; `World` takes any of them (see `docs/physics.md`).
 
+    ## Sand
+
+    `PenaltyBallsSand-v0` (3D, 300 grains) and `PenaltyBallsSand2D-v0` (40 grains) are v1 (the
+    balls roll) with the bowl's bottom filled by a bed of grains (`grains`, up to 10,000;
+    `grain_radius` 0.06 m, `grain_mass` 0.15 kg) that the pusher and the ball plough through.
+    The grains are balls of the same contact model (spring, dashpot, friction at the contact
+    point, rolling resistance): the scene's `ks` and `kd` serve every pair, so a grain contact is
+    overdamped (a grain barely bounces, as sand) and the dashpot sets the substep (25 per step
+    at the defaults; lighter grains need more: the stability limit is `kd`-bound).
+
+    - **The bed** is settled once per configuration and process: the grains drop from a lattice
+      around the bottom and are stepped with the scene's own physics (grains alone) until none
+      moves faster than 2 cm/s (at least 2 s, at most 20 s of simulated time; a bed still moving
+      then warns). Every reset starts from that bed turned about the vertical by a uniform angle
+      (the arena: a quarter turn; 2D: mirrored or not), drawn from the env's `np_random` after the
+      start's draws, grains at rest: `reset` costs about a millisecond (`python -m
+      penalty_env.bench env`).
+    - **The bodies** start at the usual horizontal positions, lifted onto the sand (touching the
+      highest grain under them) or resting on the floor where there is none.
+    - **The goal** is reached horizontally: `distance`, `pusher_distance`, the rewards and
+      success use the horizontal axes only (the sand's surface moves; a ball on the bed rides
+      above the floor). The observed goal position is a resting ball's centre there on the bare
+      floor, as without sand.
+    - **The height map** in the observation: `5^(d-1)` cells of 0.2 m centred on the ball (x then
+      y, row-major), each the sand's depth there: the highest grain top (z + r) in the cell above
+      the bare floor under that grain, 0 where there is none.
+    - **Terrains:** `"bowl"` and `"arena"` (a floor with a closed-form height); a bed deeper than
+      0.5 m is refused, naming the most grains that fit.
+    - **Stepping:** each world by the core's scalar step through a grid of the grains' size; the
+      pusher, the ball and the obstacles stay out of the grid and meet every ball directly
+      (`penalty_env.physics.broadphase.new_grid(lead=...)`).
+
     ## Rendering
 
     `render_mode="rgb_array"` returns a uint8 `(render_height, render_width, 3)` frame (3D: top
@@ -235,6 +272,9 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
       with regularised Coulomb friction at the contact point (docs/physics.md section 8). Each
       world is stepped by the core's scalar step (the SIMD-lanes twin does not rotate), about 5x
       the cost of a v0 step. Same observation, action, reward and start distribution.
+    * Sand-v0 (`PenaltyBallsSand-v0`, `PenaltyBallsSand2D-v0`): v1 with a settled bed of grains
+      (`grains=300` in 3D, 40 in 2D; "Sand"). The keywords `grains`, `grain_radius` and
+      `grain_mass` were added for it; their default (`grains=0`) leaves v0 and v1 unchanged.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": render_fps(PARAMETERS["control_period"][0])}

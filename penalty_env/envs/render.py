@@ -28,6 +28,7 @@ PUSHER_COLOR = (0.20, 0.42, 0.85)
 BALL_COLOR = (0.93, 0.45, 0.10)
 OBSTACLE_COLOR = (0.55, 0.55, 0.60)
 GOAL_COLOR = (0.10, 0.70, 0.25)
+GRAIN_COLOR = (0.70, 0.50, 0.30)
 LIGHT = (-0.45, -0.55, 0.70)  # towards the light, image axes (x right, y down, z out of screen)
 
 
@@ -185,8 +186,9 @@ def _draw_3d(img, pos, radii, colors, goal, goal_tol, ground, scale, order):
 
 
 @njit
-def _draw_2d(img, pos, radii, colors, goal, goal_tol, R, scale, ground_px):
-    """Side view: x right, z up (y = ground_px at z = 0)."""
+def _draw_2d(img, pos, radii, colors, goal, goal_tol, R, scale, ground_px, bodies):
+    """Side view: x right, z up (y = ground_px at z = 0). The balls after the first ``bodies``
+    (the grains) are drawn first, the bodies over them."""
     H, W = img.shape[0], img.shape[1]
     ox = 0.5 * W
     lx, ly, lz = LIGHT
@@ -200,7 +202,9 @@ def _draw_2d(img, pos, radii, colors, goal, goal_tol, R, scale, ground_px):
     _rect(img, gx - band, gz + 0.2 * scale * 0.5, gx + band, gz + 0.2 * scale * 0.5 + max(2.0, 0.012 * H), gr, gg, gb)
     _rect(img, gx - 1.0, gz - 0.35 * scale, gx + 1.0, gz + 0.1 * scale, 0.3 * gr, 0.3 * gg, 0.3 * gb)
     _rect(img, gx + 1.0, gz - 0.35 * scale, gx + 1.0 + 0.12 * scale, gz - 0.27 * scale, gr, gg, gb)
-    for i in range(pos.shape[0]):
+    n = pos.shape[0]
+    for t in range(n):
+        i = (t + bodies) % n
         cx = ox + pos[i, 0] * scale
         cy = ground_px - pos[i, 1] * scale
         rad = radii[i] * scale
@@ -368,7 +372,7 @@ class Renderer:
                 self.background = _background_3d(self.width, self.height, R, self.scale)
             else:
                 self.background = _background_2d(self.width, self.height, R, self.scale, self.ground_px)
-        colors = [PUSHER_COLOR, BALL_COLOR] + [OBSTACLE_COLOR] * scene.n_obstacles
+        colors = [PUSHER_COLOR, BALL_COLOR] + [OBSTACLE_COLOR] * scene.n_obstacles + [GRAIN_COLOR] * scene.n_grains
         self.colors = np.array(colors, dtype=np.float64)
         self.radii = np.ascontiguousarray(scene.radii, dtype=np.float64)
         self._order = np.zeros(len(self.radii), dtype=np.int64)
@@ -417,7 +421,16 @@ class Renderer:
             _draw_3d(img, pos, self.radii, self.colors, goal, s.goal_tolerance, ground, self.scale, self._order)
         else:
             _draw_2d(
-                img, pos, self.radii, self.colors, goal, s.goal_tolerance, s.bowl_radius, self.scale, self.ground_px
+                img,
+                pos,
+                self.radii,
+                self.colors,
+                goal,
+                s.goal_tolerance,
+                s.bowl_radius,
+                self.scale,
+                self.ground_px,
+                s.n_bodies,
             )
         return img
 

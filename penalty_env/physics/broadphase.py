@@ -46,19 +46,28 @@ Grid = namedtuple(
         "cell",  # (B, n) linear cell index of each ball
         "geom",  # (B, 7) lower corner (3), upper corner (3), cell size
         "dims",  # (B, 4) cells per axis (3) and their product
+        "lead",  # (1,) the first lead[0] balls are met by every other ball directly, not through the grid
     ],
 )
 
 
-def new_grid(B: int, n: int) -> Grid:
-    """Grid buffers for B worlds of n balls (up to 4 n cells; the cells grow if a ball flies off)."""
-    cap = max(4 * n, 64)
+def new_grid(B: int, n: int, lead: int = 0, cells_per_ball: int = 4) -> Grid:
+    """Grid buffers for B worlds of n balls (up to ``cells_per_ball`` n cells; the cells grow if a
+    ball flies off).
+
+    ``lead``: the first ``lead`` balls stay out of the grid; each meets every later ball directly
+    (all pairs). For a few large balls among many small ones (the sand env's pusher and ball among
+    its grains): the cells need only be as wide as the largest of the other balls
+    (``Model.cell_size``), and the lead balls do not stretch the grid's box. 0: every ball in the
+    grid (the order of the contacts is then exactly that of a grid without lead balls)."""
+    cap = max(cells_per_ball * n, 64)
     return Grid(
         start=np.zeros((B, cap + 1), dtype=np.int64),
         items=np.zeros((B, n), dtype=np.int64),
         cell=np.zeros((B, n), dtype=np.int64),
         geom=np.zeros((B, 7)),
         dims=np.ones((B, 4), dtype=np.int64),
+        lead=np.array([lead], dtype=np.int64),
     )
 
 
@@ -92,6 +101,7 @@ def build_grid(b, x, grid, model, g):
     """
     D = len(g)
     n = x.shape[1]
+    first = grid.lead[0]  # the lead balls stay out of the grid
     cap = grid.start.shape[1] - 1
     finite = True
     for k in range(3):
@@ -101,7 +111,7 @@ def build_grid(b, x, grid, model, g):
     for k in range(D):
         lo = np.inf
         hi = -np.inf
-        for i in range(n):
+        for i in range(first, n):
             xk = x[b, i, k]
             if not np.isfinite(xk):
                 finite = False
@@ -129,7 +139,7 @@ def build_grid(b, x, grid, model, g):
     inv_h = 1.0 / h
     for c in range(total + 1):
         grid.start[b, c] = 0
-    for i in range(n):
+    for i in range(first, n):
         c = 0
         stride = 1
         for k in range(D):
@@ -142,8 +152,8 @@ def build_grid(b, x, grid, model, g):
     for c in range(total):
         running += grid.start[b, c]
         grid.start[b, c] = running  # inclusive prefix: one past the last item of cell c
-    grid.start[b, total] = n
-    for i in range(n - 1, -1, -1):  # reverse fill leaves each cell ascending in i
+    grid.start[b, total] = n - first
+    for i in range(n - 1, first - 1, -1):  # reverse fill leaves each cell ascending in i
         c = grid.cell[b, i]
         grid.start[b, c] -= 1
         grid.items[b, grid.start[b, c]] = i
@@ -196,7 +206,11 @@ def contacts_grid(mode, b, x, v, out, coef_pair, coef_terrain, grid, model, fric
     n = x.shape[1]
     acc = 0.0
     for i in range(n):
-        acc = combine(mode, acc, grid_neighbours(mode, b, i, True, x, v, out, coef_pair, grid, model, friction, g))
+        if i < grid.lead[0]:  # a lead ball meets every later ball directly
+            for j in range(i + 1, n):
+                acc = combine(mode, acc, pair_contact(mode, b, i, j, x, v, out, coef_pair, True, model, friction, g))
+        else:
+            acc = combine(mode, acc, grid_neighbours(mode, b, i, True, x, v, out, coef_pair, grid, model, friction, g))
         acc = combine(mode, acc, terrain_contact(mode, b, i, x, v, out, coef_terrain, model, friction, g))
     return acc
 

@@ -320,6 +320,11 @@ def pose_columns(d: int) -> dict[str, slice]:
 
 
 GROUP_CLASSES = {name: namedtuple(name.capitalize() + "Group", ["pose", "shape"]) for name in PRIMITIVE_KINDS}
+# each class also a module attribute of its own name: pickle (Numba's cache index keys its entries by
+# the argument types) then stores it by reference, and a new process finds the cached kernels. As
+# dict values only, the classes were pickled by value, each process's types differed from the
+# cache's, and every scene with general shapes compiled again in every process (60 s and more).
+globals().update({cls.__name__: cls for cls in GROUP_CLASSES.values()})
 # a height field group: shape's parameters nx, ny, cell x, cell y, origin x, origin y; heights (B, S, NX, NY)
 HeightGroup = namedtuple("HeightGroup", ["pose", "shape", "heights"])
 # CSG shapes (:func:`csg_sdf`): prog (S, 1 + L) int64, each row its length then its postfix program

@@ -450,6 +450,9 @@ def spin_contact_forces(b, x, v, a, grid, model, spin, g):
         if grid is None:
             for j in range(i + 1, n):
                 spin_pair(b, i, j, x, v, a, model, spin, D)
+        elif i < grid.lead[0]:  # a lead ball meets every later ball directly (:func:`.broadphase.new_grid`)
+            for j in range(i + 1, n):
+                spin_pair(b, i, j, x, v, a, model, spin, D)
         else:
             x0, x1, y0, y1, z0, z1, nx, ny = neighbour_rows(b, i, x, grid, D)
             for qz in range(z0, z1):

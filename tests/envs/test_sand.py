@@ -1,0 +1,242 @@
+"""PenaltyBallsSand-v0 / PenaltyBallsSand2D-v0: the pushing task through a settled bed of grains
+(v1's rolling physics): registration, both env checkers, seeded replay, the native vector env
+against single envs, the settled bed and its reuse, the height map against its definition, the
+renderer's grains, and the arguments refused."""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env, data_equivalence
+from gymnasium.vector import SyncVectorEnv
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import penalty_env  # noqa: F401
+from penalty_env.envs import scene as S
+from penalty_env.envs.render import GRAIN_COLOR
+
+SAND = {"PenaltyBallsSand-v0": (3, 300), "PenaltyBallsSand2D-v0": (2, 40)}
+# the 2D id compiles its own kernels (about 40 s cold): kept for the slow run
+SAND_IDS = ["PenaltyBallsSand-v0", pytest.param("PenaltyBallsSand2D-v0", marks=pytest.mark.slow)]
+
+
+def test_sand_is_registered_on_v1_physics_with_grains():
+    for env_id, (d, grains) in SAND.items():
+        spec = gym.spec(env_id)
+        assert spec.kwargs == {"dim": d, "physics": "rolling", "grains": grains}
+        assert spec.vector_entry_point == "penalty_env.envs.penalty_balls:PenaltyBallsVectorEnv"
+    scene = gym.make("PenaltyBallsSand-v0").unwrapped.scene
+    assert scene.world.rotation is True
+    assert scene.n_balls == 2 + 300 and scene.n_bodies == 2
+    # the observation: v1's 21 entries and a 5 x 5 height map
+    assert scene.observation_space.shape == (21 + 25,)
+    assert gym.make("PenaltyBallsSand-v0", grains=1000).observation_space.shape == (46,)
+
+
+@pytest.mark.parametrize("env_id", SAND_IDS)
+def test_both_env_checkers_pass_on_sand(env_id):
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make(env_id).unwrapped)
+        sb3_check_env(gym.make(env_id).unwrapped)
+
+
+@pytest.mark.parametrize("env_id", SAND_IDS)
+def test_sand_replays_a_seeded_episode_bit_for_bit(env_id):
+    env = gym.make(env_id, max_episode_steps=40)
+    rng = np.random.default_rng(2)
+    actions = rng.uniform(-1.0, 1.0, (40,) + env.action_space.shape).astype(np.float32)
+    runs = []
+    for _ in range(2):
+        obs, _ = env.reset(seed=7)
+        trace = [obs]
+        for a in actions:
+            obs, reward, terminated, truncated, info = env.step(a)
+            trace.append(obs)
+            assert np.isfinite(reward) and info["max_overlap"] < 0.5
+            if terminated or truncated:
+                break
+        runs.append(np.array(trace))
+    assert np.array_equal(runs[0], runs[1])
+
+
+@pytest.mark.parametrize("env_id", SAND_IDS)
+def test_sand_native_vector_env_equals_single_envs(env_id):
+    n, k = 3, SAND[env_id][0] - 1
+    native = gym.make_vec(env_id, num_envs=n, max_episode_steps=25)
+    twin = SyncVectorEnv([lambda: gym.make(env_id, max_episode_steps=25) for _ in range(n)])
+    rng = np.random.default_rng(0)
+    assert data_equivalence(native.reset(seed=3), twin.reset(seed=3), exact=True)
+    for t in range(55):  # through two autoresets
+        acts = rng.uniform(-1.0, 1.0, (n, k)).astype(np.float32)
+        assert data_equivalence(native.step(acts), twin.step(acts), exact=True), t
+
+
+def test_the_bed_is_settled_once_and_each_reset_turns_it_about_the_vertical():
+    env = gym.make("PenaltyBallsSand-v0").unwrapped
+    scene = env.scene
+    bed = scene.bed
+    assert scene.settle_speed < S.SAND_SETTLE_SPEED and scene.settle_time >= S.SAND_SETTLE_TIME[0]
+    # a second scene of the same configuration reuses the bed (no second settling)
+    assert gym.make_vec("PenaltyBallsSand-v0", num_envs=2).scene.bed is bed
+    # a different grain count is a different bed
+    assert gym.make("PenaltyBallsSand-v0", grains=200).unwrapped.scene.bed.shape == (200, 3)
+    # the settled grains rest in the bowl: none below the floor by more than a small overlap, none flying
+    rho = np.hypot(bed[:, 0], bed[:, 1])
+    gap = bed[:, 2] - scene.floor(bed[:, :2]) - scene.radii[-1]
+    assert gap.min() > -0.05 * scene.radii[-1]
+    assert bed[:, 2].max() < 10 * scene.radii[-1]
+    env.reset(seed=1)
+    grains = scene.world.positions[0, scene.n_bodies :]
+    # turned about the vertical through the bottom: heights and distances from the axis kept, in order
+    np.testing.assert_allclose(grains[:, 2], bed[:, 2], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(np.hypot(grains[:, 0], grains[:, 1]), rho, rtol=1e-12, atol=1e-12)
+    angle = np.arctan2(grains[:, 1], grains[:, 0]) - np.arctan2(bed[:, 1], bed[:, 0])
+    assert np.ptp(np.mod(angle[rho > 0.1] + np.pi, 2 * np.pi)) < 1e-9
+    # the bodies start on the sand or the floor, touching no grain
+    for i in range(scene.n_bodies):
+        p = scene.world.positions[0, i]
+        dist = np.linalg.norm(grains - p, axis=1) - scene.radii[i] - scene.radii[-1]
+        assert dist.min() >= -1e-9
+        assert p[2] >= scene.floor(p[:2]) + scene.radii[i] - 0.1 * scene.radii[i]
+    # at rest: every velocity and spin zero
+    assert not scene.world.velocities[0].any() and not scene.world.angular_velocities[0].any()
+
+
+def _height_map(scene, b=0):
+    """The height map as the observation table documents it, in numpy."""
+    d = scene.dim
+    x = scene.world.positions[b]
+    hm = scene.heightmap
+    H, c = hm.cells, hm.cell
+    out = np.zeros(H ** (d - 1))
+    ball = x[1]
+    for i in range(scene.n_bodies, scene.n_balls):
+        u = (x[i, : d - 1] - ball[: d - 1] + 0.5 * H * c) / c
+        if np.any(u < 0) or np.any(u >= H):
+            continue
+        cell = int(u[0]) if d == 2 else int(u[0]) * H + int(u[1])
+        depth = x[i, d - 1] + scene.radii[i] - scene.floor(x[i, : d - 1])
+        out[cell] = max(out[cell], min(depth, hm.top))
+    return out
+
+
+def test_the_height_map_is_the_sand_depth_around_the_ball():
+    env = gym.make("PenaltyBallsSand-v0")
+    obs, _ = env.reset(seed=4)
+    scene = env.unwrapped.scene
+    off = scene.layout.heightmap_offset
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        np.testing.assert_allclose(obs[off:], _height_map(scene), rtol=1e-6, atol=1e-6)
+        obs, *_ = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
+    # the bed is two to three grains deep at the bottom: the map sees sand there
+    assert 0.0 < obs[off:].max() < 10 * scene.radii[-1]
+    assert scene.observation_space.contains(obs)
+
+
+def test_the_renderer_draws_the_grains():
+    """Every grain covers the bowl's own image at its centre (3D top view), in the grains' colour
+    family (more red than blue, as GRAIN_COLOR), in both render modes' frame."""
+    env = gym.make("PenaltyBallsSand-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render().astype(int)
+    renderer = env.unwrapped._renderer
+    background = renderer.background.astype(int)
+    scene = env.unwrapped.scene
+    grains = scene.world.positions[0, scene.n_bodies :]
+    px = (0.5 * renderer.width + grains[:, 0] * renderer.scale).astype(int)
+    py = (0.5 * renderer.height - grains[:, 1] * renderer.scale).astype(int)
+    covered = np.abs(frame[py, px] - background[py, px]).max(axis=-1) > 10
+    assert covered.all()
+    assert GRAIN_COLOR[0] > GRAIN_COLOR[2]
+    hidden = np.zeros(len(grains), dtype=bool)  # under the pusher or the ball (blue / orange drawn over)
+    for i in range(scene.n_bodies):
+        hidden |= np.hypot(*(grains[:, :2] - scene.world.positions[0, i, :2]).T) < scene.radii[i]
+    rgb = frame[py[~hidden], px[~hidden]]
+    assert np.mean(rgb[:, 0] > rgb[:, 2] + 20) > 0.95
+
+
+def test_grains_are_refused_where_they_cannot_go():
+    with pytest.raises(ValueError, match=r"grains=.*at most \d+ fit"):
+        gym.make("PenaltyBallsSand-v0", grains=10_000, grain_radius=0.15)
+    with pytest.raises(ValueError, match=r"terrain='bumpy' cannot hold grains"):
+        gym.make("PenaltyBallsSand-v0", terrain="bumpy")
+    with pytest.raises(ValueError, match=r"grains .* must be an int in \[0, 10000\], got 10001"):
+        gym.make("PenaltyBallsSand-v0", grains=10_001)
+    with pytest.raises(ValueError, match=r"grain_radius"):
+        gym.make("PenaltyBallsSand-v0", grain_radius=0.5)
+
+
+def test_the_goal_is_reached_horizontally():
+    """With sand the ball rides on the bed: success and the shaping use the horizontal distance."""
+    env = gym.make("PenaltyBallsSand-v0")
+    env.reset(seed=3)
+    scene = env.unwrapped.scene
+    _, _, _, _, info = env.step(np.zeros(2, dtype=np.float32))
+    ball, goal = scene.world.positions[0, 1], scene.goal[0]
+    assert info["distance"] == pytest.approx(np.hypot(*(goal[:2] - ball[:2])), rel=1e-12)
+    assert abs(goal[2] - ball[2]) > 1e-3  # the heights differ: the 3D distance would not be this
+
+
+@pytest.mark.slow  # compiles the arena's kernels
+def test_sand_in_the_arena_stays_within_its_walls_and_turns_by_quarter_turns():
+    env = gym.make("PenaltyBallsSand-v0", terrain="arena", grains=500)
+    scene = env.unwrapped.scene
+    bed = scene.bed
+    assert np.abs(bed[:, :2]).max() < S.ARENA_HALF_WIDTH - 0.9 * scene.radii[-1]
+    for seed in range(4):
+        env.reset(seed=seed)
+        grains = scene.world.positions[0, scene.n_bodies :]
+        turned = [
+            np.stack([c * bed[:, 0] - s * bed[:, 1], s * bed[:, 0] + c * bed[:, 1]], axis=-1)
+            for c, s in ((1, 0), (0, 1), (-1, 0), (0, -1))
+        ]
+        assert any(np.array_equal(grains[:, :2], t) for t in turned)
+        for _ in range(10):
+            env.step(np.ones(2, dtype=np.float32))
+        assert np.abs(scene.world.positions[0, :, :2]).max() < S.ARENA_HALF_WIDTH
+
+
+@pytest.mark.slow  # each grain count settles its own bed
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    grains=st.integers(1, 600),
+    radius=st.floats(0.02, 0.15),
+    mass=st.floats(0.01, 1.0),
+    friction=st.floats(0.0, 1.5),
+    dim=st.sampled_from([2, 3]),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_every_sand_combination_starts_valid_or_is_refused(grains, radius, mass, friction, dim, seed):
+    kwargs = dict(grains=grains, grain_radius=radius, grain_mass=mass, friction=friction)
+    env_id = "PenaltyBallsSand-v0" if dim == 3 else "PenaltyBallsSand2D-v0"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a bed still creeping after 20 s warns
+            env = gym.make(env_id, **kwargs)
+    except ValueError as exc:
+        assert any(k in str(exc) for k in kwargs) and any(ch.isdigit() for ch in str(exc)), str(exc)
+        return
+    obs, _ = env.reset(seed=seed)
+    scene = env.unwrapped.scene
+    x = scene.world.positions[0]
+    r = scene.radii
+    gap = np.linalg.norm(x[:, None] - x[None], axis=-1) - r[:, None] - r[None] + np.eye(len(x)) * 1e9
+    nb = scene.n_bodies
+    assert gap[:nb].min() >= -1e-9, "no body starts overlapping a grain or a body"
+    assert gap.min() > -0.2 * radius, "the settled grains overlap little"
+    rng = np.random.default_rng(seed)
+    for _ in range(20):
+        obs, reward, *_ = env.step(rng.uniform(-1, 1, dim - 1).astype(np.float32))
+        assert env.observation_space.contains(obs) and np.isfinite(reward)
