@@ -374,10 +374,10 @@ class PenaltyBallsScene:
         self._velocity_zeros = np.zeros((B, n, d))
         # one SIMD-lane scratch per thread (the kernel's chunks run concurrently)
         threads = _runner.thread_count()
-        self._lane_scratch = np.zeros((threads, 6, n, d, LANES))
+        scalar = self.rolling or n_grains > 0  # stepped by the scalar step, not the SIMD lanes
+        self._lane_scratch: Any = None if scalar else np.zeros((threads, 6, n, d, LANES))
         self._lane_ids = np.zeros((threads, LANES), dtype=np.int64)
         # with rotation or grains the scalar step's accelerations and external force, (B, n, d) each
-        scalar = self.rolling or n_grains > 0
         self._scalar_scratch = (np.zeros((B, n, d)), np.zeros((B, n, d))) if scalar else None
         # what the kernel steps: the World's own state and model (so ``world.positions``,
         # ``set_state``, ``energy`` and ``max_penetration`` see what the env steps). The World is
@@ -404,7 +404,8 @@ class PenaltyBallsScene:
             self.goal,
             self.buffers,
         )
-        # with grains: the grid the scalar step sorts the balls into (the World's own), and the
+        # with grains: the grid the scalar step sorts the balls into (the scene's own: the World's
+        # has no lead balls and pusher-sized cells), and the
         # height map's constants; the settled bed (made once per configuration, see ``settled_bed``)
         if n_grains:
             self.heightmap = KE.HeightMap(
@@ -500,14 +501,19 @@ class PenaltyBallsScene:
 
     def grain_lattice(self) -> np.ndarray:
         """The grains' start before settling, (n_grains, d): a square lattice of ``SAND_LATTICE``
-        radii around the bottom, ``ceil(n^(1/(d-1)) / 2)`` sites wide (about four layers), each
+        radii around the bottom, about four layers (``ceil(sqrt(n) / 2)`` sites wide in 3D,
+        ``ceil(n / 4)`` in 2D; more layers where that would pass the walls or the rim of a bed
+        ``SAND_MAX_DEPTH`` deep), each
         layer above the floor under it, jittered by up to 10% of a radius (a fixed generator:
         the same bed for every scene of the configuration)."""
         d, n, r = self.dim, self.n_grains, float(self.radii[-1])
         step = SAND_LATTICE * r
-        side = max(1, math.ceil(0.5 * n ** (1.0 / (d - 1))))
+        side = max(1, math.ceil(0.5 * n**0.5) if d == 3 else math.ceil(0.25 * n))
         if self.terrain_kind == "arena":  # within the walls
             side = min(side, int((2.0 * ARENA_HALF_WIDTH - 2.0 * r) / step))
+        else:  # within the rim of a bed SAND_MAX_DEPTH deep (more layers instead)
+            rim = math.sqrt(2.0 * self.bowl_radius * SAND_MAX_DEPTH)
+            side = max(1, min(side, int(2.0 * (rim - r) / step)))
         axis = (np.arange(side) - 0.5 * (side - 1)) * step
         layer = np.stack(np.meshgrid(*([axis] * (d - 1)), indexing="ij"), axis=-1).reshape(-1, d - 1)
         layers = math.ceil(n / len(layer))
@@ -542,20 +548,19 @@ class PenaltyBallsScene:
             out[:, :, 0] = np.where(u[:, None] < 0.5, -bed[:, 0], bed[:, 0])
         return out
 
-    def _rest_on_sand(self, h: np.ndarray, grains: np.ndarray) -> np.ndarray:
-        """Centre heights of bodies at horizontal positions ``h`` (k, bodies, d - 1) resting on the
-        floor (sunk by their resting overlap) or, where grains (k, n_grains, d) lie under them, just
-        touching the highest one."""
+    def _on_sand(self, h: np.ndarray, grains: np.ndarray) -> np.ndarray:
+        """The lowest centre heights at which bodies at horizontal positions ``h`` (k, bodies, d - 1)
+        clear every grain of ``grains`` (k, n_grains, d): just touching the highest grain under
+        each (-inf where none lies under it). One body at a time (temporaries of k x grains)."""
         d = self.dim
-        rest = self._rest_radii[: self.n_bodies]
-        z = self.floor(h) + rest
-        r = self.radii[: self.n_bodies]
         rg = float(self.radii[-1])
-        gap = h[:, :, None, :] - grains[:, None, :, : d - 1]  # (k, bodies, grains, d - 1)
-        reach2 = (r[None, :, None] + rg) ** 2 - np.sum(gap * gap, axis=-1)
-        top = grains[:, None, :, d - 1] + np.sqrt(np.maximum(reach2, 0.0))
-        top = np.where(reach2 > 0.0, top, -np.inf).max(axis=-1)
-        return np.maximum(z, top)
+        out = np.empty(h.shape[:2])
+        for i in range(h.shape[1]):
+            gap = h[:, i, None, :] - grains[:, :, : d - 1]  # (k, grains, d - 1)
+            reach2 = (self.radii[i] + rg) ** 2 - np.sum(gap * gap, axis=-1)
+            top = grains[:, :, d - 1] + np.sqrt(np.maximum(reach2, 0.0))
+            out[:, i] = np.where(reach2 > 0.0, top, -np.inf).max(axis=-1)
+        return out
 
     def _split(self, worlds: np.ndarray) -> list[np.ndarray]:
         return _runner.split(worlds, self.n_balls * self.substeps)
@@ -622,7 +627,8 @@ class PenaltyBallsScene:
         if self.n_grains:  # the settled bed, turned about the vertical (mirrored in 2D); bodies on it
             grains = self._bed_copies([rng.random() for rng in rngs if rng is not None])
             pos = np.concatenate([pos[:, : self.n_bodies], grains, pos[:, -1:]], axis=1)
-            pos[:, : self.n_bodies, -1] = self._rest_on_sand(flat[:, : self.n_bodies], grains)
+            nb = self.n_bodies  # resting on the floor (as without sand), or on the highest grain under it
+            pos[:, :nb, -1] = np.maximum(pos[:, :nb, -1], self._on_sand(flat[:, :nb], grains))
         self.goal[idx] = pos[:, -1]
         zeros = self._velocity_zeros[: idx.size]
         if self.rolling:

@@ -17,6 +17,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from .. import _validate as V
 from .._jit import njit
 from .contact import FORCE, combine, pair_contact, terrain_contact
 
@@ -59,7 +60,13 @@ def new_grid(B: int, n: int, lead: int = 0, cells_per_ball: int = 4) -> Grid:
     (all pairs). For a few large balls among many small ones (the sand env's pusher and ball among
     its grains): the cells need only be as wide as the largest of the other balls
     (``Model.cell_size``), and the lead balls do not stretch the grid's box. 0: every ball in the
-    grid (the order of the contacts is then exactly that of a grid without lead balls)."""
+    grid (the order of the contacts is then exactly that of a grid without lead balls). Lead balls
+    are supported by :func:`build_grid`, :func:`contacts_grid` and the rotating law's
+    ``spin_contact_forces`` (the scalar step); the neighbour list and event location make their own
+    grids, without lead balls."""
+    n = V.integer("n", n, 1)
+    lead = V.integer("lead", lead, 0, n, "balls kept out of the grid, first in index order")
+    cells_per_ball = V.integer("cells_per_ball", cells_per_ball, 1)
     cap = max(cells_per_ball * n, 64)
     return Grid(
         start=np.zeros((B, cap + 1), dtype=np.int64),

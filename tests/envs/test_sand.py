@@ -240,3 +240,30 @@ def test_every_sand_combination_starts_valid_or_is_refused(grains, radius, mass,
     for _ in range(20):
         obs, reward, *_ = env.step(rng.uniform(-1, 1, dim - 1).astype(np.float32))
         assert env.observation_space.contains(obs) and np.isfinite(reward)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("terrain", ["bowl", "arena"])
+def test_the_start_lattice_stays_inside_the_terrain_up_to_the_largest_grain_count(dim, terrain):
+    """Where the grains start before settling: inside the bowl (or the arena's walls, above its
+    floor) for every grain size, up to the most grains the arguments allow (``max_grains``, at most
+    10,000), without overlap (the lattice's pitch 2.2 r, jittered by 0.1 r either way)."""
+    from types import SimpleNamespace
+
+    R = 8.0
+    for r in (0.02, 0.06, 0.15):
+        n = min(S.max_grains(dim, r, R, terrain), 10_000)
+        stub = SimpleNamespace(dim=dim, n_grains=n, radii=np.full(n + 2, r), terrain_kind=terrain, bowl_radius=R)
+        stub.floor = S.PenaltyBallsScene.floor.__get__(stub)
+        x = S.PenaltyBallsScene.grain_lattice(stub)
+        assert x.shape == (n, dim)
+        if terrain == "bowl":
+            centre = np.zeros(dim)
+            centre[-1] = R
+            assert np.all(R - np.linalg.norm(x - centre, axis=-1) >= r), (r, n)
+        else:
+            assert np.all(np.abs(x[:, :-1]) <= S.ARENA_HALF_WIDTH - r) and np.all(x[:, -1] >= r), (r, n)
+        # the jittered lattice: neighbours on a layer at least 2.2 r - 0.2 r apart
+        layer = x[np.abs(x[:, -1] - x[:, -1].min()) < 0.5 * r] if terrain == "arena" else x[: min(n, 400)]
+        d = np.linalg.norm(layer[:, None] - layer[None], axis=-1) + np.eye(len(layer)) * 1e9
+        assert d.min() >= 2.0 * r - 1e-12, (r, n)
