@@ -13,6 +13,7 @@ count nor on how the steps are split into calls). The pair law is the list twin
 from __future__ import annotations
 
 from collections import namedtuple
+from types import FunctionType
 from typing import Any
 
 import numpy as np
@@ -31,7 +32,9 @@ __all__ = [
     "LargeWorld",
     "NeighbourLists",
     "run_large",
+    "run_large_serial",
     "LARGE_WORLD_MIN_BALLS",
+    "SERIAL_MAX_BALLS",
     "NEIGHBOUR_SKIN",
     "LARGE_WORLD_MAX_ESCAPES",
     "EXPLICIT_EULER",
@@ -47,6 +50,10 @@ NEIGHBOUR_SKIN = 0.1
 # ... and up to n / 256 (at least 64, at most this many) balls that have moved skin / 2 since (their
 # contacts are searched each step, escaped pairs pair by pair) before the list is rebuilt
 LARGE_WORLD_MAX_ESCAPES = 256
+# A single world below this many balls is stepped serially (:func:`run_large_serial`): a parallel
+# region's launch, four per step, costs more than splitting the force loop saves (measured: see
+# ``python -m penalty_env.bench scale``)
+SERIAL_MAX_BALLS = 2_000
 # the two integrators this path runs (``run_large``'s ``integ``)
 EXPLICIT_EULER, SYMPLECTIC_EULER = 0, 1
 
@@ -419,6 +426,30 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
     return taken
 
 
+def _serial_twin(fn: Any, name: str, **callees: Any) -> Any:
+    """A jitted function of ``fn``'s Python source compiled without ``parallel`` (its ``prange``
+    loops run as plain loops, so it launches no parallel region) and with the GIL released, under
+    its own name (so its own Numba cache entry), its calls to ``callees`` (name: jitted function)
+    replaced. The same source, so the same arithmetic in the same order: the same result."""
+    py = fn.py_func
+    scope = dict(py.__globals__, **callees)
+    twin = FunctionType(py.__code__, scope, name, py.__defaults__, py.__closure__)
+    twin.__qualname__ = name
+    twin.__module__ = py.__module__
+    twin.__doc__ = f"{py.__name__} run serially on the calling thread (see _serial_twin)."
+    return njit(nogil=True)(twin)
+
+
+_permute_rows_serial = _serial_twin(_permute_rows, "_permute_rows_serial")
+_build_list_serial = _serial_twin(_build_list, "_build_list_serial")
+# ``run_large`` on the calling thread alone, ``threads`` = 1: no parallel region, the GIL released;
+# the same result as ``run_large``, bit for bit (the runner steps a batch of worlds so, a share of
+# the worlds per thread, and a small world alone)
+run_large_serial = _serial_twin(
+    run_large, "run_large_serial", _permute_rows=_permute_rows_serial, _build_list=_build_list_serial
+)
+
+
 class NeighbourLists:
     """One neighbour list (:data:`LargeWorld`) per world of a batch, and its stepping.
 
@@ -436,6 +467,7 @@ class NeighbourLists:
         self.skin = NEIGHBOUR_SKIN * 2.0 * float(self.radii.max())
         self.worlds: list[tuple[LargeWorld, Any]] = []
         self.full: list[Any] = []  # per world: its Model with its general shapes (world b's as world 0)
+        self._entries: dict[bool, Any] = {}  # run_large_serial's compiled entry, by whether ext is None
         for b in range(B):
             radii, inv_mass = self.radii.copy(), self.inv_mass.copy()  # permuted with the storage
             cell = model.cell_size + self.skin
@@ -491,35 +523,56 @@ class NeighbourLists:
         friction: Any,
         g: tuple,
         status: np.ndarray,
+        worlds: Any = None,
+        serial: bool = False,
     ) -> None:
-        """Advance every world by n steps (world after world, each parallel over its balls)."""
-        for b, (lw, model) in enumerate(self.worlds):
+        """Advance ``worlds`` (default: every world) by n steps, world after world: each parallel
+        over its balls (:func:`run_large`) or, with ``serial``, on the calling thread alone
+        (:func:`run_large_serial`, releasing the GIL: the runner steps a batch so, a share of the
+        worlds per thread). Both give the same result, bit for bit."""
+        for b in range(len(self.worlds)) if worlds is None else worlds:
             w = slice(b, b + 1)
             done = 0
             while done < n:
-                done += run_large(
-                    integ,
-                    n - done,
-                    dt,
-                    x[w],
-                    v[w],
-                    None if ext is None else ext[w],
-                    model,
-                    friction,
-                    g,
-                    status[w],
-                    lw,
-                    self.threads,
-                    self.full[b],
-                )
+                lw, model = self.worlds[b]
+                wext = None if ext is None else ext[w]
+                if serial:
+                    args = (integ, n - done, dt, x[w], v[w], wext, model, friction, g, status[w], lw, 1, self.full[b])
+                    done += self._serial_entry(args)(*args)
+                else:
+                    done += run_large(
+                        integ,
+                        n - done,
+                        dt,
+                        x[w],
+                        v[w],
+                        wext,
+                        model,
+                        friction,
+                        g,
+                        status[w],
+                        lw,
+                        self.threads,
+                        self.full[b],
+                    )
                 if status[b] != STATUS_OK:
                     break
                 if done < n:  # a ball has more neighbours than the list holds: grow it, go on
                     grown = self._new(int(lw.state[1]) + 9)
                     for field in ("perm", "state"):
                         getattr(grown, field)[:] = getattr(lw, field)
-                    lw = grown
-                    self.worlds[b] = (lw, model)
+                    self.worlds[b] = (grown, model)
+
+    def _serial_entry(self, args: tuple) -> Any:
+        """:func:`run_large_serial` compiled for these argument types, called without Numba's
+        per-call type resolution (a microsecond per field of each NamedTuple argument, paid per
+        world and call). Keyed by whether there is an external force: every other argument's type
+        is fixed by the World."""
+        key = args[5] is None
+        entry = self._entries.get(key)
+        if entry is None:
+            entry = self._entries[key] = run_large_serial.compile(tuple(run_large_serial.typeof_pyval(a) for a in args))
+        return entry
 
     def stats(self, b: int = 0) -> dict:
         """World b's list: ``builds`` so far, balls ``escaped`` now, ``listed_per_ball`` (mean listed

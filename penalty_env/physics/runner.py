@@ -30,7 +30,7 @@ import numpy as np
 from . import events as _events
 from . import integrators as _integrators
 from . import lanes as _lanes
-from .neighbour_list import EXPLICIT_EULER, SYMPLECTIC_EULER, NeighbourLists
+from .neighbour_list import EXPLICIT_EULER, SERIAL_MAX_BALLS, SYMPLECTIC_EULER, NeighbourLists
 
 __all__ = ["PATHS", "PARALLEL_MIN_WORK", "thread_count", "pool", "split", "dispatch", "entry_point", "Runner"]
 
@@ -164,8 +164,18 @@ class Runner:
         B, balls = x.shape[0], x.shape[1]
         if self.path == "neighbour_list":
             integ = SYMPLECTIC_EULER if self.integrator == "symplectic_euler" else EXPLICIT_EULER
-            with PARALLEL_LOCK:
-                self.lists.step(integ, n, self.dt, x, v, ext, friction, g, self.status)
+            args = (integ, n, self.dt, x, v, ext, friction, g, self.status)
+            threads = thread_count()
+            if B >= threads and B > 1:
+                # a batch: a share of the worlds per thread, each world serial on its own list (no
+                # parallel region; round robin, so a batch of equal worlds splits evenly)
+                parts = [range(t, B, threads) for t in range(min(threads, B))]
+                dispatch(lambda part: self.lists.step(*args, worlds=part, serial=True), [(p,) for p in parts])
+            elif threads == 1 or balls < SERIAL_MAX_BALLS:
+                self.lists.step(*args, serial=True)  # no parallel region: its launch costs more than it saves
+            else:
+                with PARALLEL_LOCK:
+                    self.lists.step(*args)
             return
         if self.path == "lanes":
             sym = self.integrator == "symplectic_euler"

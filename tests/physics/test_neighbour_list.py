@@ -215,3 +215,38 @@ def test_a_huge_finite_displacement_still_advances_every_other_ball(contact_kwar
         w.step(2)
     keep = np.arange(n) != 5
     np.testing.assert_allclose(worlds["grid"].positions[keep], worlds["all_pairs"].positions[keep], rtol=0, atol=1e-12)
+
+
+def test_serial_and_parallel_list_steps_agree_bit_for_bit_and_a_batch_equals_each_world_alone(monkeypatch):
+    """A large world is stepped parallel over its balls (``run_large``), or serially on one thread
+    (``run_large_serial``: a small world alone, a single thread, or a batch, a share of its worlds
+    per thread): one algorithm, so the same result bit for bit, through escapes and rebuilds."""
+    from penalty_env.physics import runner
+
+    B, n, d = 3, LARGE_WORLD_MIN_BALLS + 200, 3
+    piles = [_pile(n, d, seed=20 + b) for b in range(B)]
+    radii, masses, bowl = piles[0][1], piles[0][2], piles[0][3]
+    x = np.stack([p[0] for p in piles])
+    rng = np.random.default_rng(3)
+    v = rng.normal(0.0, 0.3, x.shape)
+    kw = dict(ks=1e4, kd=2 * 0.3 * math.sqrt(1e4 * 0.5), dt=0.2 / math.sqrt(2e4), mu=0.3, terrain=bowl)
+    kw.update(broadphase="grid", stepping="neighbour_list")
+    forces = rng.normal(0.0, 0.5, x.shape)
+
+    def run(xb, vb, fb, threads, serial_max):
+        monkeypatch.setattr(runner, "thread_count", lambda: threads)
+        monkeypatch.setattr(runner, "SERIAL_MAX_BALLS", serial_max)
+        w = World(xb, radii, masses, vb, **kw)
+        for chunk in (40, 1, 39):
+            w.step(chunk, forces=fb)
+        assert w.neighbour_list_stats()["builds"] > 1
+        return w.positions.copy(), w.velocities.copy()
+
+    batch = run(x, v, forces, threads=2, serial_max=0)  # 3 worlds over 2 threads, each serial
+    for b in range(B):
+        one = slice(b, b + 1)
+        parallel = run(x[one], v[one], forces[one], threads=2, serial_max=0)  # run_large, 2 threads
+        serial = run(x[one], v[one], forces[one], threads=2, serial_max=10**9)  # run_large_serial
+        for got in (parallel, serial):
+            np.testing.assert_array_equal(got[0][0], batch[0][b])
+            np.testing.assert_array_equal(got[1][0], batch[1][b])
