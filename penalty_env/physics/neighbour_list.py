@@ -1,11 +1,16 @@
-"""Large worlds: a Verlet neighbour list, and the force loop parallel over balls.
+"""Large worlds: a Verlet neighbour list per world, and the force loop parallel over balls.
 
 A world of ``LARGE_WORLD_MIN_BALLS`` balls or more, with the grid and symplectic or explicit Euler,
-is stepped here instead of one world per thread (:func:`run_large`; its docstring gives the
+is stepped here, through its own list (:func:`run_large`; its docstring gives the
 algorithm: a list of every pair within r_i + r_j + skin, balls that "escape" it, storage sorted by
 grid cell, slabs of cells whose writes never meet, so the result depends neither on the thread
 count nor on how the steps are split into calls). The pair law is the list twin
 :func:`.contact_listed.pair_contact_listed`.
+
+One algorithm, two compilations: :func:`run_large` runs its loops parallel over the balls (a single
+large world), :func:`run_large_serial` (the same source without parallel regions, the GIL released)
+runs them on the calling thread: the runner steps a batch so, a share of its worlds per thread, and
+a world under ``SERIAL_MAX_BALLS`` alone. The result is the same bit for bit.
 
 :class:`NeighbourLists` holds one list per world of a batch, on the Python side.
 """

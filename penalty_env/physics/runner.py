@@ -9,8 +9,9 @@
   cost more than they save;
 * the choice of stepping path for a World (:data:`PATHS`): ``scalar`` (one world at a time per
   thread, :func:`.integrators.run_worlds`, or the event-located :func:`.events.run_worlds`),
-  ``lanes`` (a block of worlds per SIMD vector, :mod:`.lanes`) and ``neighbour_list`` (one large
-  world at a time, parallel over its balls, :mod:`.neighbour_list`).
+  ``lanes`` (a block of worlds per SIMD vector, :mod:`.lanes`) and ``neighbour_list`` (a Verlet
+  list per world, :mod:`.neighbour_list`: a batch a share of its worlds per thread, each serial; a
+  single large world parallel over its balls).
 
 Every world is stepped serially within its range, so what a world computes does not depend on how
 the batch is split: the split only decides the speed.

@@ -143,9 +143,9 @@ class World:
         stepping: how the batch is stepped (the result is the same up to round-off, and bit for
             bit between ``scalar`` and ``lanes``): ``auto`` (the fastest that applies), ``scalar``
             (one world at a time per thread; every integrator), ``lanes`` (a block of worlds per
-            SIMD vector: all pairs, symplectic or explicit Euler) or ``neighbour_list`` (one world
-            at a time, parallel over its balls, through a Verlet list: the grid, symplectic or
-            explicit Euler).
+            SIMD vector: all pairs, symplectic or explicit Euler) or ``neighbour_list`` (each world
+            through its own Verlet list: a batch a share of its worlds per thread, a single large
+            world parallel over its balls; the grid, symplectic or explicit Euler).
         allow_unstable: skip the stability guard (for stability studies).
         events: event-located stepping (:mod:`penalty_env.physics.events`): each step stops at
             every contact switch (a contact beginning or ending) and crosses it, which restores
