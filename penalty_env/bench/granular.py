@@ -750,7 +750,7 @@ def case_repose(dim: int, out: str) -> dict:
 
 
 BEVERLOO_2D = dict(orifices=(12.0, 10.0, 8.5, 7.0, 6.0, 5.0), n=1100, width=32.0, seeds=(2,), time_max=300.0)
-BEVERLOO_3D = dict(orifices=(8.0, 7.0, 6.0, 5.5, 5.0), n=2500, width=12.0, seeds=(2,), time_max=300.0)
+BEVERLOO_3D = dict(orifices=(8.0, 7.0, 6.0, 5.5), n=2500, width=12.0, seeds=(2,), time_max=300.0)
 BEVERLOO_CSV = ["seed", "D", "t", "discharged_mass", "fill_height", "total_mass", "rho_b", "n", "width"]
 
 
