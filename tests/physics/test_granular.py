@@ -145,31 +145,54 @@ def test_repose_angle_grows_with_sliding_then_rolling_friction(piles):
 
 
 # ----------------------------------------------------------------------------------------------
-# 3. Beverloo's law in 2D (slow: a few minutes)
+# 3. Beverloo's law
 # ----------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_silo_orifice_is_open(dim):
+    """Along the silo's axis, from above the floor down to the catch plane, the floor and the wall
+    are at least the orifice's half width (the rim) away: no surface spans the orifice. (The 3D
+    plate and shell are differences of shapes, max(phi_a, -phi_b): with cutters that ended just
+    past the plate and the floor, their caps left a phantom face across the hole and grains rested
+    on it.) Points beside the orifice, over the plate, are at their height above it."""
+    width, D, height, catch = 12.0, 5.0, 20.0, 20.0
+    terrain = gr.silo_terrain(dim, width, D, height, catch)
+    z = np.linspace(0.6, -catch + 1.0, 50)
+    axis = np.zeros((z.size, dim))
+    axis[:, -1] = z
+    walls = terrain[:2] if dim == 3 else terrain[:4]  # 3D: plate, shell; 2D: two plates, two walls
+    for shape in walls:
+        assert np.all(shape.phi(axis) >= D / 2 - 1e-9), shape
+    beside = np.zeros((1, dim))
+    beside[0, 0], beside[0, -1] = D / 2 + 1.5, 0.3
+    assert min(float(shape.phi(beside)[0]) for shape in walls) == pytest.approx(0.3, abs=1e-9)
 
 
 @pytest.mark.slow
 def test_slot_discharge_follows_beverloo_two_dimensional_law():
-    """A flat-bottomed 2D silo (25 d wide, 600 disks) drains through slots of width D = 5 to 10 d.
-    With Beverloo's 2D exponent, W = C rho_b sqrt(g) (D - k d)^(3/2) (Beverloo et al. 1961; in 2D
-    Mankoc et al. 2007, Janda et al. 2012), fits every rate within 5%, with k within the published
-    1 to 3 grain diameters and C of order one; the rate over the two halves of the middle of the
-    discharge (fill height falling from about 19 d to 11 d) changes by less than 25%.
-
-    Not asserted, because this size does not resolve them (docs/granular.md, "Beverloo"): the
-    free-exponent fit (measured b = 1.97, its 68% interval from the rates' scatter 1.35 to 3.1)
-    and fill-height independence within 10% (measured 6% to 21%)."""
+    """A flat-bottomed 2D silo (32 d wide, 1100 disks, one fill of the bench's) drains through slots of
+    width D = 5 to 12 d. Beverloo's law, W = C rho_b sqrt(g) (D - k d)^b (Beverloo et al. 1961; in 2D
+    b = 3/2: Mankoc et al. 2007, Janda et al. 2012): fitted with b free, b is 3/2 within 0.3 (the
+    target); with b fixed at 3/2, k lies within Beverloo's 1 to 3 grain diameters, C is of order
+    one, and every rate lies within 10% of the law (twice the rates' relative scatter, about 5%,
+    measured from the two halves of each discharge). Fill-height independence: for D >= 6 d the
+    rates over the two halves of the middle of the discharge (fill height 27 d, then 21 to 15 d)
+    differ by less than 10% (the target); at D = 5 d, where the flow is intermittent (arches form
+    and break), by less than 30% (measured 23%; docs/granular.md, "Beverloo")."""
+    cfg = gr.BEVERLOO_2D
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        runs = gr.discharge(2, (5.0, 6.5, 8.0, 10.0), n=600, width=25.0)
+        runs = gr.discharge(2, cfg["orifices"], n=cfg["n"], width=cfg["width"], seed=cfg["seeds"][0])
     for r in runs:
         a, b = r.rate_windows
-        assert abs(a - b) / r.rate < 0.25, (r.D, r.rate_windows)
+        assert abs(a - b) / r.rate < (0.10 if r.D >= 6.0 else 0.30), (r.D, r.rate_windows)
     D = np.array([r.D for r in runs])
     W = np.array([r.rate for r in runs])
+    assert D.size >= 4 and np.all(np.isfinite(W))
     fit = gr.beverloo_fit(D, W, 2, runs[0].bulk_density)
+    assert abs(fit["b"] - 1.5) < 0.3
     law = fit["C_fixed"] * runs[0].bulk_density * (D - fit["k_fixed"]) ** 1.5
-    assert np.all(np.abs(W / law - 1.0) < 0.05)
+    assert np.all(np.abs(W / law - 1.0) < 0.10)
     assert 1.0 < fit["k_fixed"] < 3.0
     assert 0.3 < fit["C_fixed"] < 2.0
