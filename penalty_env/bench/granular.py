@@ -875,8 +875,8 @@ def lammps_silo_script(
     a: float,
     n: int,
 ) -> str:
-    """The LAMMPS input of the silo (``n`` grains) (after ``read_data``, the grains of type 1 and the rim's spheres
-    of type 2; before ``neighbor``/``timestep``/``run``). Every contact is Hooke with damping
+    """The LAMMPS input of the silo of ``n`` grains (after ``read_data``: the grains of type 1, the
+    rim's spheres of type 2; before ``neighbor``/``timestep``/``run``). Every contact is Hooke with damping
     m_eff gamma_n v_n (``damping mass_velocity``) and a linear tangential spring with history
     (``tangential linear_history``: Kt, the dashpot x_gamma,t m_eff gamma_n, the cap mu |F_n|), as
     our ``tangential="history"``; the grains turn (``fix nve/sphere``):
