@@ -117,17 +117,20 @@ def find_lammps() -> Lammps | str:
 
 
 def _data_file(
-    path: str, x: np.ndarray, v: np.ndarray, radii: np.ndarray, masses: np.ndarray, lo, hi, omega=None
+    path: str, x: np.ndarray, v: np.ndarray, radii: np.ndarray, masses: np.ndarray, lo, hi, omega=None, types=None
 ) -> None:
     """A LAMMPS data file (atom_style sphere: id type diameter density x y z) with velocities
-    (id vx vy vz wx wy wz)."""
+    (id vx vy vz wx wy wz); ``types`` the atom types (1, 2, ...; all 1 by default)."""
     w = np.zeros_like(v) if omega is None else omega
+    kind = [1] * x.shape[0] if types is None else [int(t) for t in types]
     diameter = (2.0 * radii).tolist()
     density = (masses / (4.0 / 3.0 * np.pi * radii**3)).tolist()
-    lines = [f"penalty_env state\n\n{x.shape[0]} atoms\n1 atom types\n"]
+    lines = [f"penalty_env state\n\n{x.shape[0]} atoms\n{max(kind)} atom types\n"]
     lines += [f"{lo[k]!r} {hi[k]!r} {ax}lo {ax}hi" for k, ax in enumerate("xyz")]
     lines.append("\nAtoms # sphere\n")
-    lines += [f"{i + 1} 1 {diameter[i]!r} {density[i]!r} {p[0]!r} {p[1]!r} {p[2]!r}" for i, p in enumerate(x.tolist())]
+    lines += [
+        f"{i + 1} {kind[i]} {diameter[i]!r} {density[i]!r} {p[0]!r} {p[1]!r} {p[2]!r}" for i, p in enumerate(x.tolist())
+    ]
     lines.append("\nVelocities\n")
     lines += [
         f"{i + 1} {u[0]!r} {u[1]!r} {u[2]!r} {o[0]!r} {o[1]!r} {o[2]!r}"
