@@ -138,6 +138,7 @@ def _csv_without_wall_times(rows, path):
     return [",".join(c for i, c in enumerate(line.split(",")) if i != col) for line in path.read_text().splitlines()]
 
 
+@pytest.mark.slow
 def test_ray_sweep_writes_the_serial_csv_on_the_quick_grid(tmp_path):
     ray = pytest.importorskip("ray")
     serial = A.sweep(quick=True, log=lambda *_: None)

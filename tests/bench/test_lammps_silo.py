@@ -73,6 +73,7 @@ def test_the_plate_touches_a_grain_the_rim_lets_through_only_on_its_top_face():
     np.testing.assert_allclose(phi[near], p[near, 2], atol=1e-12)
 
 
+@pytest.mark.slow
 @needs_lammps
 def test_a_grain_bounces_off_a_rim_sphere_as_off_a_frozen_lammps_grain():
     """The rim's contact law: a spinning grain hits one rim sphere obliquely (gravity on), in our

@@ -2,7 +2,8 @@
 
 The parent first uses each parallel path the package has: the thread pool (a batched World over
 the scalar and SIMD-lanes paths, and ``make_vec`` with enough worlds to split), and Numba's threading
-layer (a large World, parallel over its balls). Then a child made by ``fork`` and one made by
+layer (a large World, parallel over its balls; and a batch of them on the pool, each world serial
+on its own list). Then a child made by ``fork`` and one made by
 ``spawn`` do the same. Each must finish (a pool inherited across fork has no threads: work sent to
 it would wait forever; GNU OpenMP kills a forked child that uses it after its parent did) and
 compute the same trajectories, bit for bit, as the parent.
@@ -21,7 +22,9 @@ SCRIPT = textwrap.dedent(
     import gymnasium as gym
     import numba
     import penalty_env
-    from penalty_env.physics import Bowl, World
+    from penalty_env.physics import Bowl, World, runner
+
+    serial_max = runner.SERIAL_MAX_BALLS
 
     def use_everything():
         out = []
@@ -40,8 +43,20 @@ SCRIPT = textwrap.dedent(
         w = World(big, np.full(len(big), 0.1), np.full(len(big), 1e-3), terrain=Bowl((0, 0, 8.0), 8.0), ks=780.4,
                   kd=0.269, dt=8.58e-5, broadphase="grid")
         assert w.stepping == "neighbour_list"
+        w.step(40)  # a world this small steps serially on the list
+        out.append(hashlib.sha256(w.positions.tobytes()).hexdigest()[:16])
+        runner.SERIAL_MAX_BALLS = 0  # ... and now parallel over its balls, on Numba's threading layer
+        w = World(big, np.full(len(big), 0.1), np.full(len(big), 1e-3), terrain=Bowl((0, 0, 8.0), 8.0), ks=780.4,
+                  kd=0.269, dt=8.58e-5, broadphase="grid")
         w.step(40)
         out.append(hashlib.sha256(w.positions.tobytes()).hexdigest()[:16])
+        runner.SERIAL_MAX_BALLS = serial_max
+        pair = np.repeat(big[None], 3, 0)  # a batch on the lists: a share of the worlds per pool thread
+        w = World(pair, np.full(len(big), 0.1), np.full(len(big), 1e-3), terrain=Bowl((0, 0, 8.0), 8.0), ks=780.4,
+                  kd=0.269, dt=8.58e-5, broadphase="grid")
+        w.step(40)
+        out.append(hashlib.sha256(w.positions[2].tobytes()).hexdigest()[:16])
+        assert out[-1] == out[-2] == out[-3], out  # one algorithm, however it is stepped
         venv = gym.make_vec("PenaltyBalls-v0", num_envs=256)
         obs, _ = venv.reset(seed=0)
         for t in range(5):

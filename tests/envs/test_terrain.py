@@ -19,8 +19,15 @@ IDS = {"PenaltyBalls-v0": 3, "PenaltyBalls2D-v0": 2}
 TERRAINS = ("arena", "bumpy")
 
 
-@pytest.mark.parametrize("env_id", IDS)
-@pytest.mark.parametrize("terrain", TERRAINS)
+# every terrain in both dimensions; the default run checks each terrain in one of them (each
+# pairing compiles its own kernels), the slow run the rest
+_SLOW_PAIRS = {("PenaltyBalls2D-v0", "arena"), ("PenaltyBalls-v0", "bumpy")}
+
+
+@pytest.mark.parametrize(
+    "env_id,terrain",
+    [pytest.param(e, t, marks=pytest.mark.slow) if (e, t) in _SLOW_PAIRS else (e, t) for t in TERRAINS for e in IDS],
+)
 def test_env_checkers_pass_on_every_terrain(env_id, terrain):
     from gymnasium.utils.env_checker import check_env
     from stable_baselines3.common.env_checker import check_env as sb3_check

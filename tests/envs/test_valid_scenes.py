@@ -63,6 +63,7 @@ def _make_or_refusal(env_id, kwargs, seed):
     return env
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(kwargs=kwargs_in_the_box(), dim=st.sampled_from([2, 3]), seed=st.integers(0, 2**31 - 1))
 def test_every_documented_combination_starts_valid_or_is_refused(kwargs, dim, seed):

@@ -15,7 +15,7 @@ from penalty_env.physics.world import GRID_MIN_BALLS
 from penalty_env.scenarios import balls_in_bowl
 
 
-@pytest.mark.parametrize("d,n", [(2, 80), (3, 120)])
+@pytest.mark.parametrize("d,n", [pytest.param(2, 80, marks=pytest.mark.slow), (3, 120)])
 def test_grid_and_all_pairs_broad_phases_give_the_same_trajectories(d, n, contact_kwargs):
     x, v, radii, _, bowl = balls_in_bowl(n, d, seed=3, radius=0.06 if d == 3 else 0.05, spacing=0.002, speed=0.8)
     x, v = x[0], v[0]

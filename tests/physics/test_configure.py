@@ -181,6 +181,7 @@ def test_configuration_for_one_percent_at_zeta_0_3_meets_it_at_near_least_cost()
     _check(CF.restitution_for_zeta(0.3), 1e-2, "linear")
 
 
+@pytest.mark.slow
 def test_configuration_for_a_tight_tolerance_picks_event_located_rk4():
     cfg, found = _check(CF.restitution_for_zeta(0.3), 1e-4, "linear")
     assert cfg.integrator == "rk4" and cfg.events

@@ -276,7 +276,7 @@ def _park(w, keep):
             w.set_shape_pose(s, position=far + np.asarray(w.terrain[s].center))
 
 
-@pytest.mark.parametrize("d", [2, 3])
+@pytest.mark.parametrize("d", [pytest.param(2, marks=pytest.mark.slow), 3])
 def test_ball_bouncing_on_a_plane_a_box_face_and_a_capsule_matches_closed_forms_worst_over_phase(d):
     rng = np.random.default_rng(6)
     phases = 256
@@ -399,6 +399,7 @@ def test_a_zero_velocity_kinematic_sphere_and_bowl_give_exactly_the_static_numbe
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_ball_in_a_corner_feels_both_walls_built_from_planes_but_only_the_nearest_of_an_inside_box():
     """A ball pressed into an inside corner along its diagonal: two planes push it out along both
     normals and it rests at overlap m g cos45 / ks on each wall; one Inside(Box) gives a single
@@ -425,6 +426,7 @@ def test_ball_in_a_corner_feels_both_walls_built_from_planes_but_only_the_neares
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_csg_min_max_is_exact_inside_an_intersection_and_a_bound_outside_it_near_an_edge():
     h = np.array([0.5, 0.4, 0.3])
     box = Box((0.0, 0.0, 0.0), h)
@@ -503,6 +505,7 @@ def test_a_user_sdf_bounces_like_the_builtin_sphere_and_bad_ones_are_refused():
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_lanes_step_general_shapes_bit_for_bit_as_the_scalar_path():
     rng = np.random.default_rng(10)
     B, n = 20, 4
@@ -522,6 +525,7 @@ def test_lanes_step_general_shapes_bit_for_bit_as_the_scalar_path():
     assert np.array_equal(ws.shape_pose(0, 3)["position"], wl.shape_pose(0, 3)["position"])
 
 
+@pytest.mark.slow
 def test_neighbour_list_path_agrees_with_the_grid_in_a_container_of_planes():
     """Two layers of balls on a jittered lattice, the outer ones already pressing the walls and the
     floor: the list path's serial passes for the general shapes give the grid's forces (to round-off:
@@ -564,6 +568,7 @@ def test_implicit_euler_rests_a_ball_on_a_box_and_events_refuse_general_shapes()
         World(np.zeros((1, 3)), [RADIUS], [MASS], terrain=Plane((0, 0, -1), (0, 0, 1)), ks=KS, dt=1e-4, events=True)
 
 
+@pytest.mark.slow
 def test_kinematic_rotation_is_exact_and_set_heights_changes_one_world():
     w0 = 0.8
     box = Box((0, 0, -5.0), (0.2, 0.2, 0.2), angular_velocity=(0.0, 0.0, w0))

@@ -97,6 +97,7 @@ def beds():
         return {mu: gr.pour_bed(2, mu=mu, n=400, width=20.0) for mu in (0.0, 0.5)}
 
 
+@pytest.mark.slow
 def test_frictionless_bidisperse_disks_pack_at_the_jamming_fraction(beds):
     """50:50 disks of diameters 1 and 1.4 poured from random non-overlapping positions and settled
     without friction fill 0.84 +- 0.02 of the bed's interior (random close packing of this mixture,
@@ -108,6 +109,7 @@ def test_frictionless_bidisperse_disks_pack_at_the_jamming_fraction(beds):
     assert bed.fraction == pytest.approx(gr.JAMMING_2D, abs=0.02)
 
 
+@pytest.mark.slow
 def test_friction_packs_the_disks_looser(beds):
     """With mu = 0.5 (Cundall-Strack springs, which hold below the cap) the poured bed stays looser
     than the frictionless one by more than the 0.01 a repeat of either scatters, and above random
@@ -129,11 +131,13 @@ def piles():
         return {(mu, mu_r): gr.repose(2, mu, mu_r, n=200) for mu, mu_r in ((0.0, 0.0), (0.5, 0.0), (0.5, 0.2))}
 
 
+@pytest.mark.slow
 def test_frictionless_pile_spreads_flat(piles):
     """Without friction a heap cannot stand: its angle is that of a monolayer's steps, near 0."""
     assert piles[(0.0, 0.0)].angle < 3.0
 
 
+@pytest.mark.slow
 def test_repose_angle_grows_with_sliding_then_rolling_friction(piles):
     """Sliding friction raises the angle well above the frictionless one; rolling resistance raises it
     further (Zhou et al., Powder Technology 125 (2002) 45: theta grows with mu and mu_r); and the

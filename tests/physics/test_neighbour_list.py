@@ -91,7 +91,10 @@ def _pile(n, d, seed, radii=0.05):
     return x[0], radii, masses, bowl
 
 
-@pytest.mark.parametrize("d,mu,damping", [(2, 0.0, "linear"), (3, 0.0, "no_tension"), (3, 0.3, "linear")])
+@pytest.mark.parametrize(
+    "d,mu,damping",
+    [pytest.param(2, 0.0, "linear", marks=pytest.mark.slow), (3, 0.0, "no_tension"), (3, 0.3, "linear")],
+)
 def test_neighbour_list_world_matches_all_pairs_while_balls_escape_and_lists_rebuild(d, mu, damping, contact_kwargs):
     """From LARGE_WORLD_MIN_BALLS balls a grid world steps through a Verlet neighbour list. Balls
     that move half the skin "escape" (their contacts are searched each step) and, once too many

@@ -65,7 +65,7 @@ def _slip(w: World) -> float:
 # --------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("d", [3, 2])
+@pytest.mark.parametrize("d", [pytest.param(3, marks=pytest.mark.slow), 2])
 def test_a_sliding_ball_ends_rolling_at_the_closed_form_speed_and_time(d):
     mu, v0 = 0.3, 2.0
     c = C[d]

@@ -112,6 +112,7 @@ def swept(tmp_path_factory):
     return {"out": tmp / "out", "serial": {s: tmp / f"serial{s}" for s in serial}, "kill": kill_dir, "log": text}
 
 
+@pytest.mark.slow
 def test_two_trial_sweep_equals_serial_train_ppo_runs(swept):
     out = swept["out"]
     for seed in (0, 1):
@@ -134,6 +135,7 @@ def test_two_trial_sweep_equals_serial_train_ppo_runs(swept):
     assert (out / "success_vs_steps.png").stat().st_size > 5_000
 
 
+@pytest.mark.slow
 def test_a_killed_trial_is_retried_and_completes(swept):
     kill = swept["kill"]
     marker = kill / "c0_default_seed1.killed"
