@@ -177,6 +177,7 @@ def _check(restitution, accuracy, damping):
     return cfg, found
 
 
+@pytest.mark.slow
 def test_configuration_for_one_percent_at_zeta_0_3_meets_it_at_near_least_cost():
     _check(CF.restitution_for_zeta(0.3), 1e-2, "linear")
 

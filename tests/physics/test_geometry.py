@@ -94,7 +94,7 @@ def _points(d, rng, scale, m=300):
     return rng.uniform(-scale, scale, (m, d))
 
 
-@pytest.mark.parametrize("d", [2, 3])
+@pytest.mark.parametrize("d", [pytest.param(2, marks=pytest.mark.slow), 3])
 def test_every_primitive_phi_is_the_exact_signed_distance_inside_and_outside(d):
     rng = np.random.default_rng(1)
     c = rng.normal(size=d) * 0.3
@@ -123,7 +123,7 @@ def test_every_primitive_phi_is_the_exact_signed_distance_inside_and_outside(d):
     assert smooth.mean() > 0.97, smooth.mean()
 
 
-@pytest.mark.parametrize("d", [2, 3])
+@pytest.mark.parametrize("d", [pytest.param(2, marks=pytest.mark.slow), 3])
 def test_cone_and_torus_phi_match_brute_force_distance_to_their_surface(d):
     rng = np.random.default_rng(2)
     c = rng.normal(size=d) * 0.2
@@ -372,6 +372,7 @@ def test_ball_rides_a_rising_plane_at_its_speed_and_a_frictionless_plane_moving_
     assert np.all(w.velocities[8:, 0, :-1] == 0.0) and np.all(w.positions[8:, 0, :-1] == 0.0)
 
 
+@pytest.mark.slow
 def test_a_zero_velocity_kinematic_sphere_and_bowl_give_exactly_the_static_numbers():
     rng = np.random.default_rng(7)
     x = np.stack(np.meshgrid([-0.4, 0.0, 0.4], [-0.4, 0.0, 0.4], [0.8, 1.1], indexing="ij"), -1).reshape(-1, 3)[:-1]
@@ -478,6 +479,7 @@ def _nan_phi(p):
     return math.sqrt(p[2]) - 2.0  # NaN below z = 0
 
 
+@pytest.mark.slow
 def test_a_user_sdf_bounces_like_the_builtin_sphere_and_bad_ones_are_refused():
     user = SDF(_unit_sphere_phi, dim=3, bounds=((-1.2,) * 3, (1.2,) * 3))
     pts = np.random.default_rng(9).normal(size=(50, 3))
