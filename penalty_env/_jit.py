@@ -34,11 +34,12 @@ import os
 import pickle
 import tempfile
 import warnings
+from typing import Any
 
 import numba
 from numba.core import config as _numba_config
 
-__all__ = ["njit", "prange"]
+__all__ = ["njit", "prange", "entry_point"]
 
 prange = numba.prange
 
@@ -137,3 +138,12 @@ def njit(*args, **kwargs):
     if len(args) == 1 and callable(args[0]):
         return decorate(args[0])
     return decorate
+
+
+def entry_point(fn: Any, args: tuple) -> Any:
+    """The compiled function of Numba dispatcher ``fn`` for these arguments' types (compiled or
+    loaded from the cache now), to call without Numba's per-call type resolution: that costs about
+    a microsecond for each field of a NamedTuple argument, as much as a small world's whole step.
+    Only for calls whose argument types are fixed by construction: the entry point does not check
+    them again."""
+    return fn.compile(tuple(fn.typeof_pyval(a) for a in args))

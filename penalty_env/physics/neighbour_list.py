@@ -25,7 +25,7 @@ import numpy as np
 from numba import types
 from numba.extending import overload
 
-from .._jit import njit, prange
+from .._jit import entry_point, njit, prange
 from .broadphase import build_grid, neighbour_rows, new_grid
 from .contact import FORCE, general_terrain_row, pair_contact, shape_dist2, terrain_contact
 from .contact_listed import pair_contact_listed
@@ -576,7 +576,7 @@ class NeighbourLists:
         key = args[5] is None
         entry = self._entries.get(key)
         if entry is None:
-            entry = self._entries[key] = run_large_serial.compile(tuple(run_large_serial.typeof_pyval(a) for a in args))
+            entry = self._entries[key] = entry_point(run_large_serial, args)
         return entry
 
     def stats(self, b: int = 0) -> dict:

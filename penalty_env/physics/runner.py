@@ -28,6 +28,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from .._jit import entry_point
 from . import events as _events
 from . import integrators as _integrators
 from . import lanes as _lanes
@@ -91,15 +92,6 @@ def split(items: int | np.ndarray, work_per_item: int, align: int = 1) -> list:
     parts = max(1, min(parts, blocks))
     bounds = np.minimum(np.linspace(0, blocks, parts + 1).astype(int) * align, count)
     return [(int(b0), int(b1)) for b0, b1 in zip(bounds[:-1], bounds[1:])]
-
-
-def entry_point(fn: Any, args: tuple) -> Callable:
-    """The compiled function of Numba dispatcher ``fn`` for these arguments' types (compiled or
-    loaded from the cache now), to call without Numba's per-call type resolution: that costs about
-    a microsecond for each field of a NamedTuple argument, as much as a small world's whole step.
-    Only for calls whose argument types are fixed by construction: the entry point does not check
-    them again."""
-    return fn.compile(tuple(fn.typeof_pyval(a) for a in args))
 
 
 def dispatch(fn: Callable, arg_lists: Sequence[tuple]) -> list:
