@@ -2,7 +2,8 @@
 
 Importing the package registers ``PenaltyBalls-v0`` (3D) and ``PenaltyBalls2D-v0`` with
 Gymnasium, their ``-v1`` (the balls roll), and ``PenaltyBallsSand-v0`` / ``PenaltyBallsSand2D-v0``
-(v1 with a bed of sand grains in the bowl), all with a native vector entry point. Registration stores import paths only, so this
+(v1 with a bed of sand grains in the bowl) and their ``-v1`` (heavier grains, longer episodes),
+all with a native vector entry point. Registration stores import paths only, so this
 import stays cheap: the environments (and Numba) load when an env is first made.
 """
 
@@ -14,22 +15,28 @@ __version__ = "0.1.0"
 
 _ENVS = "penalty_env.envs.penalty_balls"
 _MAX_EPISODE_STEPS = 150  # penalty_env.envs.penalty_balls.MAX_EPISODE_STEPS (kept literal: no import)
+_SAND_V1_EPISODE_STEPS = 300  # penalty_env.envs.penalty_balls.SAND_V1_EPISODE_STEPS (kept literal: no import)
+_SAND_V1_GRAIN_MASS = 0.5  # penalty_env.envs.scene.SAND_V1_GRAIN_MASS, kg (kept literal: no import)
 
 # v0: balls that slide; v1: balls that roll (physics="rolling"; the docstring's version history).
 # v1 is a sibling task, not v0's replacement (v0 stays the main id, bit for bit): Gymnasium's
 # "PenaltyBalls-v0 is out of date, consider upgrading to v1" on every make of v0 would mislead.
+# Likewise Sand-v0 (its makes stay silent as they were; the docs point sand users to Sand-v1).
 warnings.filterwarnings(
-    "ignore", message=r".*The environment PenaltyBalls(2D)?-v0 is out of date", category=DeprecationWarning
+    "ignore", message=r".*The environment PenaltyBalls(Sand)?(2D)?-v0 is out of date", category=DeprecationWarning
 )
 # Sand: v1's rolling physics with a settled bed of grains in the bowl (penalty_env.envs.scene's
-# SAND_GRAINS: 300 in 3D, 40 in 2D).
-for _id, _dim, _physics, _grains in (
-    ("PenaltyBalls-v0", 3, "sliding", 0),
-    ("PenaltyBalls2D-v0", 2, "sliding", 0),
-    ("PenaltyBalls-v1", 3, "rolling", 0),
-    ("PenaltyBalls2D-v1", 2, "rolling", 0),
-    ("PenaltyBallsSand-v0", 3, "rolling", 300),
-    ("PenaltyBallsSand2D-v0", 2, "rolling", 40),
+# SAND_GRAINS: 300 in 3D, 40 in 2D). Sand-v1: grains of 0.5 kg (no longer setting the substep:
+# 9 per step as in v1, against Sand-v0's 25) and 300-step episodes (the env docstring's history).
+for _id, _dim, _physics, _grains, _extra, _steps in (
+    ("PenaltyBalls-v0", 3, "sliding", 0, {}, _MAX_EPISODE_STEPS),
+    ("PenaltyBalls2D-v0", 2, "sliding", 0, {}, _MAX_EPISODE_STEPS),
+    ("PenaltyBalls-v1", 3, "rolling", 0, {}, _MAX_EPISODE_STEPS),
+    ("PenaltyBalls2D-v1", 2, "rolling", 0, {}, _MAX_EPISODE_STEPS),
+    ("PenaltyBallsSand-v0", 3, "rolling", 300, {}, _MAX_EPISODE_STEPS),
+    ("PenaltyBallsSand2D-v0", 2, "rolling", 40, {}, _MAX_EPISODE_STEPS),
+    ("PenaltyBallsSand-v1", 3, "rolling", 300, {"grain_mass": _SAND_V1_GRAIN_MASS}, _SAND_V1_EPISODE_STEPS),
+    ("PenaltyBallsSand2D-v1", 2, "rolling", 40, {"grain_mass": _SAND_V1_GRAIN_MASS}, _SAND_V1_EPISODE_STEPS),
 ):
     if _id not in registry:
         _kwargs: dict = {"dim": _dim}
@@ -37,10 +44,11 @@ for _id, _dim, _physics, _grains in (
             _kwargs["physics"] = _physics
         if _grains:
             _kwargs["grains"] = _grains
+        _kwargs.update(_extra)
         register(
             id=_id,
             entry_point=f"{_ENVS}:PenaltyBallsEnv",
             vector_entry_point=f"{_ENVS}:PenaltyBallsVectorEnv",
-            max_episode_steps=_MAX_EPISODE_STEPS,
+            max_episode_steps=_steps,
             kwargs=_kwargs,
         )

@@ -37,6 +37,8 @@ _ENV_IDS = (
     "PenaltyBalls2D-v1",
     "PenaltyBallsSand-v0",
     "PenaltyBallsSand2D-v0",
+    "PenaltyBallsSand-v1",
+    "PenaltyBallsSand2D-v1",
 )
 
 

@@ -4,10 +4,14 @@
     python train/train_ppo.py                       # PenaltyBalls-v0, 16 worlds, seed 0
     python train/train_ppo.py --seed 1 --out runs/s1
     python train/train_ppo.py --env-id PenaltyBalls2D-v0 --env-kwarg n_obstacles=2
+    python train/train_ppo.py --env-id PenaltyBalls-v1 --out runs/v1 \
+      && python train/train_ppo.py --env-id PenaltyBallsSand-v1 --init-from runs/v1 --gamma 0.99
 
 The worlds are stepped by our native SB3 VecEnv (one Numba call for all of them), with
 observation and reward normalisation (VecNormalize). An evaluation callback measures the success
-rate on held-out seeds as training goes. The run folder (``--out``) receives:
+rate on held-out seeds as training goes. ``--init-from RUN`` starts from a previous run's policy
+and normalisation statistics (a curriculum: the sand envs start from a policy trained without
+sand; see :func:`init_from`). The run folder (``--out``) receives:
 
   model.zip           the trained policy
   vecnormalize.pkl    the observation/reward normalisation statistics
@@ -65,6 +69,7 @@ SETTINGS: dict[str, Any] = dict(
     threads=1,  # torch threads
     numba_threads=None,  # None: Numba's own default (every core)
     tensorboard=None,
+    init_from=None,  # a run folder whose policy and normalisation this run starts from (init_from())
     progress=True,
     gif=True,
 )
@@ -139,6 +144,13 @@ def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
         raise ValueError(f"setting 'numba_threads' must be None or an integer >= 1, got {nt!r}")
     if not isinstance(s["env_kwargs"], Mapping):
         raise ValueError(f"setting 'env_kwargs' must be a mapping of env keyword arguments, got {s['env_kwargs']!r}")
+    if s["init_from"] is not None:
+        src = s["init_from"]
+        if not isinstance(src, (str, Path)) or not (Path(src) / "model.zip").is_file():
+            raise ValueError(
+                f"setting 'init_from' must be None or a run folder of train_ppo.py holding model.zip, got {src!r}"
+            )
+        s["init_from"] = str(src)
     if not isinstance(s["env_id"], str):
         raise ValueError(f"setting 'env_id' must be a registered env id, got {s['env_id']!r}")
     for key in ("normalize", "progress", "gif"):
@@ -208,6 +220,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="TensorBoard log folder (needs tensorboard installed)",
     )
+    p.add_argument(
+        "--init-from",
+        type=Path,
+        default=None,
+        metavar="RUN",
+        help="start from this run folder's policy and normalisation statistics (a curriculum; see init_from)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-gif", action="store_true", help="skip the GIF of the trained policy")
     p.add_argument(
@@ -232,6 +251,7 @@ def settings_from_args(args: argparse.Namespace) -> dict[str, Any]:
         threads=args.threads,
         numba_threads=args.numba_threads,
         tensorboard=args.tensorboard,
+        init_from=args.init_from,
         progress=not args.no_progress,
         gif=not args.no_gif,
     )
@@ -337,9 +357,12 @@ def train(
         device="cpu",
         verbose=0,
     )
+    if s["init_from"] is not None:
+        init_from(model, venv if isinstance(venv, VecNormalize) else None, Path(s["init_from"]))
+    start = f", from {s['init_from']}" if s["init_from"] else ""
     print(
         f"training PPO on {env_id} {env_kwargs or ''}: {s['timesteps']:,} steps, "
-        f"{s['n_envs']} worlds, seed {seed} -> {out}",
+        f"{s['n_envs']} worlds, seed {seed}{start} -> {out}",
         flush=True,
     )
     t0 = time.perf_counter()
@@ -378,6 +401,7 @@ def train(
         "random_mean_return": rand["mean_return"],
         "hyperparameters": {k: s[k] for k in HYPERPARAMETERS},
         "normalize": s["normalize"],
+        "init_from": s["init_from"],
         "curve": curve,
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
@@ -395,6 +419,60 @@ def train(
         f"mean return {trained['mean_return']:.2f} (random {rand['mean_return']:.2f}); results in {out}"
     )
     return summary
+
+
+INIT_STATS_COUNT = 10_000  # init_from: the earlier run's normalisation statistics weigh as this many samples
+
+
+def init_from(model, vecnorm, src: Path) -> None:
+    """Start ``model`` (and its ``VecNormalize`` ``vecnorm``, or None) from the run folder ``src``.
+
+    The policy's weights are copied. The new env's observation may extend the earlier one's (the
+    sand envs append a height map to v1's 21 entries, which mean the same): the first layers'
+    weights for the extra inputs start at zero, so the policy first acts as the earlier one did,
+    and learns to read the extra entries. The normalisation statistics of the shared entries
+    (and of the return) are copied with a weight of ``INIT_STATS_COUNT`` samples, so the new env's
+    own statistics take over within a few rollouts; the extra entries start at mean 0, variance 1.
+    Refused (ValueError naming the folder) when the action space or the hidden layers differ, or
+    the earlier observation is longer."""
+    import pickle
+
+    import torch
+    from stable_baselines3 import PPO
+
+    old = PPO.load(src / "model.zip", device="cpu")
+    if old.action_space.shape != model.action_space.shape:
+        raise ValueError(
+            f"init_from={str(src)!r}: its action space {old.action_space.shape} is not this env's {model.action_space.shape}"
+        )
+    k_old, k_new = old.observation_space.shape[0], model.observation_space.shape[0]
+    if k_old > k_new:
+        raise ValueError(f"init_from={str(src)!r}: its observation has {k_old} entries, this env's only {k_new}")
+    old_sd, new_sd = old.policy.state_dict(), model.policy.state_dict()
+    if set(old_sd) != set(new_sd):
+        raise ValueError(f"init_from={str(src)!r}: its policy's layers differ from this run's (net_arch)")
+    for key, w in new_sd.items():
+        w_old = old_sd[key]
+        if w_old.shape == w.shape:
+            new_sd[key] = w_old.clone()
+        elif w.ndim == 2 and w_old.shape == (w.shape[0], k_old) and w.shape[1] == k_new:  # a first layer
+            grown = torch.zeros_like(w)
+            grown[:, :k_old] = w_old
+            new_sd[key] = grown
+        else:
+            raise ValueError(
+                f"init_from={str(src)!r}: layer {key} has shape {tuple(w_old.shape)} there, {tuple(w.shape)} here (net_arch)"
+            )
+    model.policy.load_state_dict(new_sd)
+    stats = src / "vecnormalize.pkl"
+    if vecnorm is not None and stats.is_file():
+        with open(stats, "rb") as f:
+            old_norm = pickle.load(f)
+        vecnorm.obs_rms.mean[:k_old] = old_norm.obs_rms.mean
+        vecnorm.obs_rms.var[:k_old] = old_norm.obs_rms.var
+        vecnorm.obs_rms.count = float(INIT_STATS_COUNT)
+        vecnorm.ret_rms = old_norm.ret_rms
+        vecnorm.ret_rms.count = float(INIT_STATS_COUNT)
 
 
 def plot_curve(curve: list[dict], summary: dict, path: Path) -> None:

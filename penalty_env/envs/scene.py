@@ -100,6 +100,7 @@ SAND_PACKING = 0.58  # solid fraction assumed for that check (a loose random pac
 SAND_SETTLE_TIME = (2.0, 20.0)  # a bed settles for at least / at most this much simulated time, s
 SAND_SETTLE_SPEED = 0.02  # ... until no grain moves faster than this, m/s
 SAND_LATTICE = 2.2  # the grains start on a square lattice of this many radii (jittered by 10% of a radius)
+SAND_V1_GRAIN_MASS = 0.5  # the Sand-v1 ids' grain mass, kg (registered; the env docstring's version history)
 HEIGHTMAP_CELLS = 5  # the observation's sand height map: this many cells per horizontal axis
 HEIGHTMAP_CELL = 0.2  # ... each this wide, m, centred on the ball
 

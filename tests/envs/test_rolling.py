@@ -115,7 +115,7 @@ def test_physics_keyword_is_checked_and_v0_stays_sliding():
 
 def test_making_v0_does_not_warn_that_it_is_out_of_date():
     """v1 is a sibling task, not v0's replacement: Gymnasium's "out of date, upgrade to v1"
-    deprecation is silenced for v0 (and only for it)."""
+    deprecation is silenced for v0 (and Sand-v0: penalty_env/__init__.py; only for them)."""
     code = "import gymnasium as gym, penalty_env\ngym.make('PenaltyBalls-v0'); gym.make('PenaltyBalls2D-v0')\n"
     subprocess.run([sys.executable, "-W", "error::DeprecationWarning", "-c", code], check=True)
     # and v1 is what the newest-version rule finds

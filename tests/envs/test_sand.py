@@ -1,5 +1,5 @@
-"""PenaltyBallsSand-v0 / PenaltyBallsSand2D-v0: the pushing task through a settled bed of grains
-(v1's rolling physics): registration, both env checkers, seeded replay, the native vector env
+"""PenaltyBallsSand-v0 / PenaltyBallsSand2D-v0 (and their -v1): the pushing task through a settled
+bed of grains (v1's rolling physics): registration, both env checkers, seeded replay, the native vector env
 against single envs, the settled bed and its reuse, the height map against its definition, the
 renderer's grains, and the arguments refused."""
 
@@ -29,10 +29,18 @@ SAND_IDS = ["PenaltyBallsSand-v0", pytest.param("PenaltyBallsSand2D-v0", marks=p
 
 
 def test_sand_is_registered_on_v1_physics_with_grains():
+    from penalty_env.envs.penalty_balls import MAX_EPISODE_STEPS, SAND_V1_EPISODE_STEPS
+
     for env_id, (d, grains) in SAND.items():
         spec = gym.spec(env_id)
         assert spec.kwargs == {"dim": d, "physics": "rolling", "grains": grains}
         assert spec.vector_entry_point == "penalty_env.envs.penalty_balls:PenaltyBallsVectorEnv"
+        assert spec.max_episode_steps == MAX_EPISODE_STEPS
+        # Sand-v1: the same with heavier grains and longer episodes
+        spec1 = gym.spec(env_id.replace("-v0", "-v1"))
+        assert spec1.kwargs == {"dim": d, "physics": "rolling", "grains": grains, "grain_mass": S.SAND_V1_GRAIN_MASS}
+        assert spec1.max_episode_steps == SAND_V1_EPISODE_STEPS == 2 * MAX_EPISODE_STEPS
+        assert spec1.vector_entry_point == spec.vector_entry_point
     scene = gym.make("PenaltyBallsSand-v0").unwrapped.scene
     assert scene.world.rotation is True
     assert scene.n_balls == 2 + 300 and scene.n_bodies == 2
@@ -41,14 +49,43 @@ def test_sand_is_registered_on_v1_physics_with_grains():
     assert gym.make("PenaltyBallsSand-v0", grains=1000).observation_space.shape == (46,)
 
 
-@pytest.mark.parametrize("env_id", SAND_IDS)
+def test_sand_v1_is_sand_v0_with_heavier_grains_and_longer_episodes_at_a_third_of_the_substeps():
+    """Sand-v1's episodes are Sand-v0's made with its two registered keywords, bit for bit (the
+    single env through its TimeLimit, and the native vector env), and its step takes 9 substeps
+    (v1's: the grains' dashpot no longer bounds the step) where Sand-v0's takes 25."""
+    v0 = gym.make("PenaltyBallsSand-v0").unwrapped.scene
+    v1 = gym.make("PenaltyBallsSand-v1").unwrapped.scene
+    assert (v0.substeps, v1.substeps) == (25, gym.make("PenaltyBalls-v1").unwrapped.scene.substeps) == (25, 9)
+    assert float(v1.masses[-1]) == S.SAND_V1_GRAIN_MASS and v1.n_grains == v0.n_grains
+    twin = gym.make("PenaltyBallsSand-v0", grain_mass=S.SAND_V1_GRAIN_MASS, max_episode_steps=300)
+    env = gym.make("PenaltyBallsSand-v1")
+    rng = np.random.default_rng(5)
+    assert data_equivalence(env.reset(seed=11), twin.reset(seed=11), exact=True)
+    for t in range(300):
+        a = rng.uniform(-1.0, 1.0, env.action_space.shape).astype(np.float32)
+        out = env.step(a)
+        assert data_equivalence(out, twin.step(a), exact=True), t
+        if out[2] or out[3]:
+            break
+    assert t == 299 and out[3] and not out[2]  # truncated at 300 steps, not 150
+    n = 2
+    native = gym.make_vec("PenaltyBallsSand-v1", num_envs=n)
+    native0 = gym.make_vec("PenaltyBallsSand-v0", num_envs=n, grain_mass=S.SAND_V1_GRAIN_MASS, max_episode_steps=300)
+    assert data_equivalence(native.reset(seed=4), native0.reset(seed=4), exact=True)
+    for t in range(20):
+        acts = rng.uniform(-1.0, 1.0, (n, 2)).astype(np.float32)
+        assert data_equivalence(native.step(acts), native0.step(acts), exact=True), t
+
+
+@pytest.mark.parametrize("env_id", [*SAND_IDS, "PenaltyBallsSand-v1"])
 def test_both_env_checkers_pass_on_sand(env_id):
     from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
+    envs = gym.make(env_id).unwrapped, gym.make(env_id).unwrapped
     with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        check_env(gym.make(env_id).unwrapped)
-        sb3_check_env(gym.make(env_id).unwrapped)
+        warnings.simplefilter("error")  # the checkers' warnings (making Sand-v0 is silent, as v0: __init__)
+        check_env(envs[0])
+        sb3_check_env(envs[1])
 
 
 @pytest.mark.parametrize("env_id", SAND_IDS)
