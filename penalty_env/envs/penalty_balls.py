@@ -153,7 +153,8 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
 
     1. Termination (success): the ball's centre is within `goal_tolerance` (0.1 m) of the goal
        (with sand: horizontally, see "Sand").
-    2. Truncation: 150 steps (6 s of simulated time), from the registered `max_episode_steps`.
+    2. Truncation: 150 steps (6 s of simulated time; the Sand-v1 ids: 300 steps, 12 s), from the
+       registered `max_episode_steps`.
 
     `terminated` and `truncated` are Python bools. A uniformly random policy almost never
     succeeds (0 of 1,024 episodes in 3D, 0.3% in 2D); the scripted pusher in

@@ -79,7 +79,16 @@ def test_training_smoke_run_saves_reloads_and_evaluates(tmp_path):
 
 def test_help_documents_the_options():
     text = _run([TRAIN, "--help"], timeout=120)
-    for opt in ("--env-id", "--timesteps", "--n-envs", "--seed", "--out", "--tensorboard", "--env-kwarg"):
+    for opt in (
+        "--env-id",
+        "--timesteps",
+        "--n-envs",
+        "--seed",
+        "--out",
+        "--tensorboard",
+        "--env-kwarg",
+        "--init-from",
+    ):
         assert opt in text
 
 
@@ -149,6 +158,9 @@ def test_init_from_starts_where_the_earlier_run_left_off_and_refuses_what_does_n
     flat, _ = model_on("PenaltyBalls2D-v1", 2)
     with pytest.raises(ValueError, match=r"init_from=.*action space"):
         T.init_from(flat, None, src)
+    raw, _ = model_on("PenaltyBallsSand-v1", 3)
+    with pytest.raises(ValueError, match=r"init_from=.*with VecNormalize, this one without"):
+        T.init_from(raw, None, src)
     with pytest.raises(ValueError, match=r"'init_from'.*model\.zip.*nowhere"):
         T.check_settings({"init_from": str(tmp_path / "nowhere")})
 
