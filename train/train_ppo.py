@@ -435,7 +435,8 @@ def init_from(model, vecnorm, src: Path) -> None:
     (and of the return) are copied with a weight of ``INIT_STATS_COUNT`` samples, so the new env's
     own statistics take over within a few rollouts; the extra entries start at mean 0, variance 1
     under the same weight, so their statistics converge slowly (the height map's std of about
-    0.05 is overestimated for most of a 2 M-step run: a known weakness, not yet changed). The
+    0.05 is overestimated for most of a 2 M-step run; statistics measured on sand instead learned
+    far worse, docs/granular.md section 5, so this stays). The
     return statistics carry the earlier run's discount until they adapt. Only the observation's
     length is checked, not its layout: the earlier entries must mean the same (v1 into the sand
     envs, without obstacles). Refused (ValueError naming the folder) when the action space or the

@@ -40,3 +40,14 @@ def test_scale_smallest_configuration_writes_finite_positive_rates(tmp_path):
     assert any(r["section"] == "batch" and r["note"] == "auto" for r in timed)
     assert (tmp_path / "scale.png").stat().st_size > 0
     assert list((tmp_path / "cache").glob("bed-1000-*.npz"))  # the settled bed was cached
+
+
+def test_simd_lever_variants_compute_the_package_forces_bit_for_bit(tmp_path):
+    """The lever record (``python -m penalty_env.bench.simd_lever``): its current loop is the
+    package's listed pair law and its variants compute the same forces bit for bit (``measure``
+    raises otherwise); every timing is finite and positive."""
+    from penalty_env.bench import simd_lever
+
+    ns = simd_lever.measure(1000, steps=1, reps=1, cache_dir=tmp_path)
+    assert set(ns) == {*simd_lever.VARIANTS, "force pass"}
+    assert all(math.isfinite(t) and t > 0 for t in ns.values()), ns

@@ -220,6 +220,39 @@ def test_a_huge_finite_displacement_still_advances_every_other_ball(contact_kwar
     np.testing.assert_allclose(worlds["grid"].positions[keep], worlds["all_pairs"].positions[keep], rtol=0, atol=1e-12)
 
 
+def test_a_single_large_world_steps_serially_when_numba_runs_one_thread(monkeypatch):
+    """``numba.set_num_threads(1)``: a parallel region would run on one thread and only cost its
+    launch, so a large world steps serially (the same result bit for bit: the test below); with
+    two threads it steps in parallel."""
+    import numba
+
+    from penalty_env.physics import runner
+
+    monkeypatch.setattr(runner, "thread_count", lambda: 2)
+    monkeypatch.setattr(runner, "SERIAL_MAX_BALLS", 0)
+    x, radii, masses, bowl = _pile(LARGE_WORLD_MIN_BALLS + 50, 3, seed=4)
+    w = World(x, radii, masses, terrain=bowl, ks=1e4, kd=50.0, dt=1e-3, broadphase="grid", stepping="neighbour_list")
+    lists = w._runner.lists
+    seen = []
+    original = lists.step
+
+    def step(*args, **kwargs):
+        seen.append(kwargs.get("serial", False))
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(lists, "step", step)
+    saved = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        w.step(2)
+        if numba.config.NUMBA_NUM_THREADS >= 2:
+            numba.set_num_threads(2)
+            w.step(2)
+    finally:
+        numba.set_num_threads(saved)
+    assert seen == [True, False][: len(seen)] and len(seen) == (2 if numba.config.NUMBA_NUM_THREADS >= 2 else 1)
+
+
 def test_serial_and_parallel_list_steps_agree_bit_for_bit_and_a_batch_equals_each_world_alone(monkeypatch):
     """A large world is stepped parallel over its balls (``run_large``), or serially on one thread
     (``run_large_serial``: a small world alone, a single thread, or a batch, a share of its worlds
