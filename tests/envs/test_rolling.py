@@ -118,8 +118,21 @@ def test_making_v0_does_not_warn_that_it_is_out_of_date():
     deprecation is silenced for v0 (and Sand-v0: penalty_env/__init__.py; only for them)."""
     ids = ("PenaltyBalls-v0", "PenaltyBalls2D-v0", "PenaltyBallsSand-v0", "PenaltyBallsSand2D-v0")
     code = "import gymnasium as gym, penalty_env\n" + "".join(f"gym.make({i!r})\n" for i in ids)
-    made = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
+    made = subprocess.run(
+        [sys.executable, "-W", "always::DeprecationWarning", "-c", code], check=True, capture_output=True, text=True
+    )
     assert "out of date" not in made.stderr, made.stderr
+    # the control: another id with a v1 beside its v0 does warn, in the same kind of process
+    control = (
+        "import gymnasium as gym, penalty_env\n"
+        "entry = gym.spec('PenaltyBalls-v0').entry_point\n"
+        "for v in (0, 1): gym.register(f'PenaltyBallsControl-v{v}', entry_point=entry)\n"
+        "gym.make('PenaltyBallsControl-v0')\n"
+    )
+    warned = subprocess.run(
+        [sys.executable, "-W", "always::DeprecationWarning", "-c", control], check=True, capture_output=True, text=True
+    )
+    assert "PenaltyBallsControl-v0 is out of date" in warned.stderr, warned.stderr
     # and v1 is what the newest-version rule finds
     out = subprocess.run(
         [sys.executable, "-c", "import gymnasium as gym, penalty_env\nprint(gym.spec('PenaltyBalls-v1').version)"],
