@@ -483,6 +483,18 @@ def _force_pass(slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g,
         _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne)
 
 
+def listed_world(bed: Bed) -> tuple[World, Any, Any, Any]:
+    """A World of ``bed`` stepped twice (its list built): the World, its ``NeighbourLists``, and
+    the one world's list state and Model. Raises when the World does not step the list path."""
+    w = bed.world()
+    w.step(2)
+    lists = w._runner.lists
+    if lists is None:
+        raise ValueError(f"{bed.n} balls: this World steps {w.stepping!r}, not the neighbour-list path")
+    lw, sm = lists.worlds[0]
+    return w, lists, lw, sm
+
+
 def phase_profile(bed: Bed, steps: int = 20, reps: int = 5) -> dict:
     """Wall-clock shares of a settled world's step on one thread, measured alternately (best of
     ``reps``): the whole step (``World.step(steps)``), the force pass alone (``_force_pass`` on the
@@ -490,12 +502,7 @@ def phase_profile(bed: Bed, steps: int = 20, reps: int = 5) -> dict:
     build (a step after ``NeighbourLists.reset``, which re-sorts the storage and rebuilds, less a
     plain step). The advance (symplectic Euler, the escape check) and the passes' overheads are the
     step less the force pass."""
-    w = bed.world()
-    w.step(2)
-    lists = w._runner.lists
-    if lists is None:
-        raise ValueError(f"phase_profile needs the neighbour-list path; this World steps {w.stepping!r}")
-    lw, sm = lists.worlds[0]
+    w, lists, lw, sm = listed_world(bed)
     grid = lw.grid
     layer = int(grid.dims[0, 0] * grid.dims[0, 1])
     slabs = int(grid.dims[0, 2])

@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from .._jit import njit
-from .scale import _force_pass, default_cache_dir, settled_bed
+from .scale import _force_pass, default_cache_dir, listed_world, settled_bed
 
 
 @njit(inline="always")
@@ -163,13 +163,7 @@ def measure(n: int = 100_000, steps: int = 10, reps: int = 5, cache_dir: Path | 
     ``reps`` alternating blocks of ``steps`` passes). Raises if the current loop's forces are not
     the package's force pass's without the terrain, or a variant's not the current loop's, bit for
     bit."""
-    bed = settled_bed(n, cache_dir or default_cache_dir())
-    w = bed.world()
-    w.step(2)
-    lists = w._runner.lists
-    if lists is None:
-        raise ValueError(f"n={n}: this World steps {w.stepping!r}, not the neighbour-list path")
-    lw, sm = lists.worlds[0]
+    w, _, lw, sm = listed_world(settled_bed(n, cache_dir or default_cache_dir()))
     ne = int(lw.state[3])
     if w._runner.friction is not None or sm.no_tension:
         raise ValueError("the variants have the frictionless law with tension only")
