@@ -15,6 +15,7 @@ EVALUATE = ROOT / "train" / "evaluate.py"
 
 pytest.importorskip("stable_baselines3")
 # the README's sand run after its PenaltyBalls-v1 run (docs/granular.md, "PPO through sand")
+V1_SEEDS = (0, 1, 2)  # the sand curriculum: the best of these v1 runs starts the sand run
 SAND_ARGS = ["--gamma", 0.99, "--learning-rate", 3e-4, "--timesteps", 2_000_000, "--eval-freq", 100_000]
 
 
@@ -166,13 +167,20 @@ def test_init_from_starts_where_the_earlier_run_left_off_and_refuses_what_does_n
 
 
 @pytest.mark.slow
-def test_the_sand_curriculum_reaches_70_percent_within_30_minutes(tmp_path):
-    """The README's sand run: PPO on PenaltyBalls-v1 (the default settings), then on
-    PenaltyBallsSand-v1 from that policy, succeeds on >= 70% of 100 held-out sand episodes (the
-    target is 80%; measured 78%, docs/granular.md section 5), both runs together within 30
+def test_the_sand_curriculum_reaches_80_percent_within_30_minutes(tmp_path):
+    """The README's sand run: PPO on PenaltyBalls-v1 (the default settings) with seeds 0, 1 and 2,
+    then PPO on PenaltyBallsSand-v1 from the one that succeeded most on its own held-out v1
+    episodes: at least 80% of 100 held-out sand episodes, all four runs together within 30
     minutes of training on 2 cores, where a random policy fails."""
-    v1 = tmp_path / "v1"
-    _run([TRAIN, "--env-id", "PenaltyBalls-v1", "--no-progress", "--no-gif", "--out", v1], timeout=15 * 60)
+    firsts = []
+    for seed in V1_SEEDS:
+        out = tmp_path / f"v1-seed{seed}"
+        _run(
+            [TRAIN, "--env-id", "PenaltyBalls-v1", "--seed", seed, "--no-progress", "--no-gif", "--out", out],
+            timeout=15 * 60,
+        )
+        firsts.append((json.loads((out / "summary.json").read_text()), out))
+    best = max(firsts, key=lambda f: f[0]["success_rate"])[1]
     sand = tmp_path / "sand"
     _run(
         [
@@ -180,7 +188,7 @@ def test_the_sand_curriculum_reaches_70_percent_within_30_minutes(tmp_path):
             "--env-id",
             "PenaltyBallsSand-v1",
             "--init-from",
-            v1,
+            best,
             *SAND_ARGS,
             "--no-progress",
             "--no-gif",
@@ -189,9 +197,9 @@ def test_the_sand_curriculum_reaches_70_percent_within_30_minutes(tmp_path):
         ],
         timeout=40 * 60,
     )
-    first, second = (json.loads((p / "summary.json").read_text()) for p in (v1, sand))
-    assert second["init_from"] == str(v1)
-    assert first["wall_time_s"] + second["wall_time_s"] <= 30 * 60
+    second = json.loads((sand / "summary.json").read_text())
+    assert second["init_from"] == str(best)
+    assert sum(f[0]["wall_time_s"] for f in firsts) + second["wall_time_s"] <= 30 * 60
     assert second["eval_episodes"] == 100
-    assert second["success_rate"] >= 0.7, second
+    assert second["success_rate"] >= 0.8, second
     assert second["random_success_rate"] <= 0.2, second
