@@ -273,10 +273,13 @@ def _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, es
     terrain is tested for the balls listed near it and for the escaped ones (which may have come
     near it since the build). A function of its own, not inlined: each inlined call site would
     compile the force law again."""
+    xf = xs.reshape(xs.size)
+    vf = vs.reshape(vs.size)
+    af = a.reshape(a.size)
     for i in range(start[s * layer], start[(s + 1) * layer]):
         escaped_i = ne > 0 and escaped[i] != 0
         if not escaped_i:
-            pair_contact_listed(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne)
+            pair_contact_listed(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne, xf, vf, af)
         if escaped_i or (near[i] & 1) != 0:
             terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
 

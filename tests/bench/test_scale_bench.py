@@ -51,3 +51,14 @@ def test_simd_lever_variants_compute_the_package_forces_bit_for_bit(tmp_path):
     ns = simd_lever.measure(1000, steps=1, reps=1, cache_dir=tmp_path)
     assert set(ns) == {*simd_lever.VARIANTS, "force pass"}
     assert all(math.isfinite(t) and t > 0 for t in ns.values()), ns
+
+
+def test_pair_cost_law_row_is_the_package_law_bit_for_bit(tmp_path):
+    """The pair-cost breakdown (``python -m penalty_env.bench.pair_cost``): its "law" row computes
+    the package's listed pair forces bit for bit (``measure`` raises otherwise); every row is
+    timed, finite and positive."""
+    from penalty_env.bench import pair_cost
+
+    ns = pair_cost.measure(1000, steps=1, reps=1, cache_dir=tmp_path)
+    assert set(ns) == {*pair_cost.VARIANTS, "force pass", "listed pairs per ball"}
+    assert all(math.isfinite(t) and t > 0 for t in ns.values()), ns

@@ -85,6 +85,26 @@ def test_large_world_storage_order_changes_only_round_off():
     np.testing.assert_array_equal(split.velocities, fresh.velocities)
 
 
+@pytest.mark.parametrize("d", [2, 3])
+def test_coincident_centres_in_a_listed_world_get_the_all_pairs_force(d):
+    """Two balls at the same centre: the list pass masks the pair (its normal is 0 / 0) and hands it
+    to the reference law after the ball's other pairs; the first step equals the all-pairs world's
+    to round-off, and the pair is pushed apart along the reference's fallback normal."""
+    n = LARGE_WORLD_MIN_BALLS + 40
+    x, radii, masses, bowl = _pile(n, d, seed=4)
+    x[1] = x[0]  # coincident, and both in contact with their lattice neighbours
+    kw = dict(ks=1e4, kd=20.0, dt=1e-3, terrain=bowl, broadphase="grid", allow_unstable=True)
+    lst = World(x, radii, masses, **kw)
+    ref = World(x, radii, masses, **dict(kw, broadphase="all_pairs"))
+    assert lst.stepping == "neighbour_list"
+    lst.step(1)
+    ref.step(1)
+    np.testing.assert_allclose(lst.velocities, ref.velocities, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(lst.positions, ref.positions, rtol=0, atol=1e-14)
+    apart = lst.positions[1] - lst.positions[0]
+    assert np.linalg.norm(apart) > 0.0, "the coincident pair must be pushed apart"
+
+
 def _pile(n, d, seed, radii=0.05):
     """n balls on a loose cubic lattice in a bowl (they settle), with their radii, masses and bowl."""
     x, _, radii, _, bowl = balls_in_bowl(n, d, seed=seed, radius=radii, lattice=True, spacing=0.05 * np.max(radii))
