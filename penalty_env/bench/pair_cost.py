@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import time
 from pathlib import Path
 
@@ -106,6 +107,26 @@ VARIANTS = {
 }
 
 
+def block_law_vector_code() -> dict[str, int]:
+    """Vector instructions in the package's block law (``contact_listed._block_law``) as LLVM
+    compiles it on this machine: its source compiled afresh (uncached, so its code can be read)
+    with the package's settings, for the signature the force pass calls."""
+    from numba import types
+
+    from ..physics.contact_listed import _block_law
+
+    fn = njit(cache=False)(_block_law.py_func)
+    fn.compile((types.int64, types.float64[:, ::1], types.float64, types.float64, types.float64))
+    ir = "".join(fn.inspect_llvm().values())
+    asm = "".join(fn.inspect_asm().values())
+    return {
+        "<4 x double>": ir.count("<4 x double>"),
+        "<2 x double>": ir.count("<2 x double>"),
+        "vsqrtpd": len(re.findall(r"\bv?sqrtpd\b", asm)),
+        "vdivpd": len(re.findall(r"\bv?divpd\b", asm)),
+    }
+
+
 def measure(n: int = 100_000, steps: int = 10, reps: int = 5, cache_dir: Path | None = None) -> dict[str, float]:
     """ns per ball of each variant and of the package's force pass, on one thread (best of ``reps``
     alternating blocks of ``steps`` passes). Raises if the "law" row's forces are not the package's
@@ -123,7 +144,7 @@ def measure(n: int = 100_000, steps: int = 10, reps: int = 5, cache_dir: Path | 
     fargs = (int(grid.dims[0, 2]), int(grid.dims[0, 0] * grid.dims[0, 1]), grid.start[0], lw.x, lw.v)
     friction, g = w._runner.friction, w._runner.g
     package = np.zeros_like(lw.a)
-    _force_pass(*fargs, package, lw.nbr, lw.count, np.zeros_like(lw.near), sm, friction, g, lw.escaped, ne)
+    _force_pass(*fargs, package, lw.nbr, lw.count, np.zeros_like(lw.near), sm, friction, g, lw.escaped, ne, lw.pairs[0])
     ours = np.zeros_like(lw.a)
     loops["law"](*flat, ours.reshape(-1), *rest)
     if not np.array_equal(package, ours):
@@ -131,7 +152,7 @@ def measure(n: int = 100_000, steps: int = 10, reps: int = 5, cache_dir: Path | 
     scratch = np.zeros_like(lw.a)
     timed = {name: (lambda fn=fn: fn(*flat, scratch.reshape(-1), *rest)) for name, fn in loops.items()}
     timed["force pass"] = lambda: _force_pass(
-        *fargs, scratch, lw.nbr, lw.count, lw.near, sm, friction, g, lw.escaped, ne
+        *fargs, scratch, lw.nbr, lw.count, lw.near, sm, friction, g, lw.escaped, ne, lw.pairs[0]
     )  # fmt: skip
     best = dict.fromkeys(timed, math.inf)
     saved = numba.get_num_threads()
@@ -163,6 +184,7 @@ def main(argv=None) -> None:  # type: ignore[no-untyped-def]
     print(f"  {'':<22} {'ns / ball':>9} {'ns / pair':>9}")
     for name, t in ns.items():
         print(f"  {name:<22} {t:9.1f} {t / pairs:9.2f}")
+    print(f"  the package's block law, vector code: {block_law_vector_code()}")
 
 
 if __name__ == "__main__":

@@ -476,11 +476,11 @@ def plot(rows: list[Row], path: Path) -> None:
 
 
 @njit
-def _force_pass(slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne):  # type: ignore[no-untyped-def]
+def _force_pass(slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, buf):  # type: ignore[no-untyped-def]
     """The neighbour list's force pass alone (every slab in storage order, serially: the work of
     ``run_large``'s even and odd slab passes, without the advance)."""
     for s in range(slabs):
-        _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne)
+        _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, buf)
 
 
 def listed_world(bed: Bed) -> tuple[World, Any, Any, Any]:
@@ -513,14 +513,14 @@ def phase_profile(bed: Bed, steps: int = 20, reps: int = 5) -> dict:
     t_step = t_force = t_build = math.inf
     numba.set_num_threads(1)
     try:
-        _force_pass(*fargs, friction, g, lw.escaped, int(lw.state[3]))  # compile
+        _force_pass(*fargs, friction, g, lw.escaped, int(lw.state[3]), lw.pairs[0])  # compile
         for _ in range(reps):
             t = time.perf_counter()
             w.step(steps)
             t_step = min(t_step, (time.perf_counter() - t) / steps)
             t = time.perf_counter()
             for _ in range(steps):
-                _force_pass(*fargs, friction, g, lw.escaped, int(lw.state[3]))
+                _force_pass(*fargs, friction, g, lw.escaped, int(lw.state[3]), lw.pairs[0])
             t_force = min(t_force, (time.perf_counter() - t) / steps)
             t = time.perf_counter()
             for _ in range(steps // 4 or 1):

@@ -178,7 +178,7 @@ def measure(n: int = 100_000, steps: int = 10, reps: int = 5, cache_dir: Path | 
     fargs = (int(grid.dims[0, 2]), int(grid.dims[0, 0] * grid.dims[0, 1]), grid.start[0], lw.x, lw.v)
     friction, g = w._runner.friction, w._runner.g
     package = np.zeros_like(lw.a)
-    _force_pass(*fargs, package, lw.nbr, lw.count, np.zeros_like(lw.near), sm, friction, g, lw.escaped, ne)
+    _force_pass(*fargs, package, lw.nbr, lw.count, np.zeros_like(lw.near), sm, friction, g, lw.escaped, ne, lw.pairs[0])
     if not np.array_equal(package, ref):
         raise AssertionError("current: forces differ from the package's listed pair law")
     for name, fn in VARIANTS.items():
@@ -189,7 +189,7 @@ def measure(n: int = 100_000, steps: int = 10, reps: int = 5, cache_dir: Path | 
     scratch = np.zeros_like(lw.a)
 
     def pass_(a):  # type: ignore[no-untyped-def]
-        _force_pass(*fargs, a, lw.nbr, lw.count, lw.near, sm, friction, g, lw.escaped, ne)
+        _force_pass(*fargs, a, lw.nbr, lw.count, lw.near, sm, friction, g, lw.escaped, ne, lw.pairs[0])
 
     timed = {name: (lambda a, fn=fn: fn(*args, a, *rest)) for name, fn in VARIANTS.items()}
     timed["force pass"] = pass_

@@ -1,9 +1,11 @@
-"""The pair contact law's neighbour-list twin: one ball's listed pairs, each applied to both balls.
+"""The pair contact law's neighbour-list twin: listed pairs, each applied to both balls.
 
-:func:`pair_contact_listed` is :func:`.contact.pair_contact` (FORCE mode) for the Verlet neighbour
-list of :mod:`.neighbour_list`: without friction it evaluates every listed pair branch-free, masked
-by the contact test, and sums ball i's share in registers; with friction, or for coincident centres,
-it calls the reference itself.
+:func:`listed_forces` is :func:`.contact.pair_contact` (FORCE mode) for the balls of a range of the
+Verlet neighbour list of :mod:`.neighbour_list`. Without friction it runs in blocks of pairs, in
+three loops: a gather of each listed pair's scalars (from the two balls' states), one loop over the
+block that computes every pair's force without a branch (LLVM vectorises it: four pairs per
+instruction, square roots and divisions included), and the scatter of those forces to both balls,
+masked by the contact test. With friction, or for coincident centres, it calls the reference itself.
 """
 
 from __future__ import annotations
@@ -11,95 +13,183 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import njit
-from .contact import FORCE, pair_contact
+from .contact import FORCE, pair_contact, terrain_contact
 
-__all__ = ["pair_contact_listed"]
+__all__ = ["PAIR_BLOCK", "PAIR_ROWS", "listed_forces"]
+
+# Pairs per block of the frictionless pass (the block buffer's length is at least this and at
+# least the list's capacity, so that any one ball's pairs fit): 128 to 512 measured alike on the
+# settled 10^5 bed (docs/scale.md, section 4); 128 keeps a batch of small worlds' buffers small.
+PAIR_BLOCK = 128
+# the block buffer's rows: per pair, its centre distance squared, the dot product of the relative
+# velocity with the centre offset, the rest distance r_i + r_j, the contact test's bound (its
+# square, or -1 when j has escaped the list), and the computed force over distance
+_DIST2, _DOT, _REST, _REACH2, _FORCE = 0, 1, 2, 3, 4
+PAIR_ROWS = 5
+
+
+@njit
+def _block_law(pairs, buf, ks, kd, cap):
+    """Every pair of the block's force along its centre offset, over the distance (0 when apart,
+    coincident or escaped): the FORCE law of :func:`.contact.pair_contact`, operations in the same
+    order as the reference list loop had them. One loop with no branch and no gather: LLVM
+    vectorises it (``<4 x double>``, ``vsqrtpd``, ``vdivpd``: the same IEEE results lane by lane).
+    Returns how many of the pairs have coincident centres (masked here: their normal is 0 / 0)."""
+    dist2s = buf[_DIST2]
+    dots = buf[_DOT]
+    rest = buf[_REST]
+    reach2 = buf[_REACH2]
+    out = buf[_FORCE]
+    coincident = 0
+    for k in range(pairs):
+        dist2 = dist2s[k]
+        dist = np.sqrt(dist2)
+        inv = 1.0 / dist
+        vn = dots[k] * inv
+        fn = -ks * (rest[k] - dist) + kd * vn  # along +n on i, as in pair_contact
+        fn = min(fn, cap)  # cap 0 without tension, else inf (fn itself)
+        touch = (dist2 < reach2[k]) & (dist2 != 0.0)
+        out[k] = fn * inv if touch else 0.0
+        coincident += dist2 == 0.0
+    return coincident
 
 
 @njit(inline="always")
-def pair_contact_listed(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne, xf, vf, af):
-    """Apply the pair forces of ball i's list (each pair once: added to i, subtracted from j),
-    skipping escaped balls. ``xf``, ``vf``, ``af`` are flat views of ``xs``, ``vs``, ``a`` (one world).
+def _skips(i, escaped, ne):
+    """Ball i has escaped its list: its pairs are not listed ones (the caller meets them)."""
+    return ne > 0 and escaped[i] != 0
 
-    Without friction this is :func:`.contact.pair_contact`'s FORCE law written for the list: every entry is
-    evaluated without a branch and masked by the contact test, and i's share is summed in registers
-    (the contact test is a coin flip in a pile, and a mispredicted branch costs more than the
-    arithmetic it skips: 2x faster, measured). Same law, operations in a different order: it agrees
-    with pair_contact to round-off (``tests/physics/test_neighbour_list.py``). Friction goes through
-    pair_contact itself, and so do coincident centres (after the loop, before i's sum is added: what
-    a ball receives, and in which order, is as if they had been called in the loop).
 
-    The loop reads its partners through the flat views with an unsigned slot (``j * D + k``: no
-    negative-index wraparound and no runtime stride per load or store), tests ``escaped[j]``
-    without ``ne`` (at force time a slot is marked only while ``ne > 0``: ``run_large`` clears every
-    mark when it rebuilds and counts every mark into ``ne`` at the end of the step that set it),
-    and takes coincident centres out of the loop: 15% less time for the settled 10^5 bed's force
-    pass, bit for bit the same forces (docs/scale.md, section 4).
+@njit(inline="always")
+def _gather(i0, i1, xf, vf, nbf, cap, cnt, radii, escaped, ne, buf, D):
+    """The block's scalars (rows _DIST2 to _REACH2) for balls i0, i0 + 1, ... of [i0, i1) while their
+    pairs fit in ``buf``. Returns the ball after the last one gathered and the pairs gathered."""
+    size = buf.shape[1]
+    dist2s = buf[_DIST2]
+    dots = buf[_DOT]
+    rest = buf[_REST]
+    reach2 = buf[_REACH2]
+    k = 0
+    i = i0
+    while i < i1 and k + cnt[i] <= size:
+        if not _skips(i, escaped, ne):
+            ui = np.uint64(i) * np.uint64(D)
+            row = np.uint64(i) * np.uint64(cap)
+            ri = radii[i]
+            p0 = xf[ui]
+            p1 = xf[ui + np.uint64(1)]
+            p2 = xf[ui + np.uint64(2)] if D == 3 else 0.0
+            u0 = vf[ui]
+            u1 = vf[ui + np.uint64(1)]
+            u2 = vf[ui + np.uint64(2)] if D == 3 else 0.0
+            for m in range(cnt[i]):
+                # an unsigned slot: no negative-index wraparound to compute on every load
+                j = np.uint64(nbf[row + np.uint64(m)])
+                c = j * np.uint64(D)
+                l0 = ri + radii[j]
+                d0 = xf[c] - p0
+                d1 = xf[c + np.uint64(1)] - p1
+                d2 = xf[c + np.uint64(2)] - p2 if D == 3 else 0.0
+                w0 = vf[c] - u0
+                w1 = vf[c + np.uint64(1)] - u1
+                w2 = vf[c + np.uint64(2)] - u2 if D == 3 else 0.0
+                dist2s[k] = d0 * d0 + d1 * d1 + d2 * d2
+                dots[k] = w0 * d0 + w1 * d1 + w2 * d2
+                rest[k] = l0
+                # a pair with an escaped ball is not a listed one (the caller meets it): never touching
+                reach2[k] = l0 * l0 if (ne == 0 or escaped[j] == 0) else -1.0
+                k += 1
+        i += 1
+    return i, k
+
+
+@njit(inline="always")
+def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, cap, cnt, near, sm, g, escaped, ne, buf, coincident, D):
+    """Apply the block's forces (row _FORCE) of balls [i0, i1), ball after ball in the order
+    gathered: j's share subtracted from a_j, i's summed in registers and added after its pairs;
+    coincident centres through pair_contact (before i's sum, as if in the loop: each listed j
+    appears once); then the terrain of a ball listed near it or escaped."""
+    forces = buf[_FORCE]
+    k = 0
+    for i in range(i0, i1):
+        escaped_i = _skips(i, escaped, ne)
+        if not escaped_i:
+            ui = np.uint64(i) * np.uint64(D)
+            p0 = xf[ui]
+            p1 = xf[ui + np.uint64(1)]
+            p2 = xf[ui + np.uint64(2)] if D == 3 else 0.0
+            f0 = 0.0
+            f1 = 0.0
+            f2 = 0.0
+            row = np.uint64(i) * np.uint64(cap)
+            for m in range(cnt[i]):
+                j = np.uint64(nbf[row + np.uint64(m)])
+                c = j * np.uint64(D)
+                fn = forces[k]
+                k += 1
+                e0 = fn * (xf[c] - p0)
+                e1 = fn * (xf[c + np.uint64(1)] - p1)
+                f0 += e0
+                f1 += e1
+                af[c] -= e0
+                af[c + np.uint64(1)] -= e1
+                if D == 3:
+                    e2 = fn * (xf[c + np.uint64(2)] - p2)
+                    f2 += e2
+                    af[c + np.uint64(2)] -= e2
+            if coincident > 0:  # in this block: test this ball's pairs
+                for m in range(cnt[i]):
+                    j = np.uint64(nbr[i, m])
+                    c = j * np.uint64(D)
+                    d0 = xf[c] - p0
+                    d1 = xf[c + np.uint64(1)] - p1
+                    d2 = xf[c + np.uint64(2)] - p2 if D == 3 else 0.0
+                    if d0 * d0 + d1 * d1 + d2 * d2 == 0.0 and (ne == 0 or escaped[j] == 0):
+                        pair_contact(FORCE, 0, i, nbr[i, m], xs, vs, a, 0.0, True, sm, None, g)
+            af[ui] += f0
+            af[ui + np.uint64(1)] += f1
+            if D == 3:
+                af[ui + np.uint64(2)] += f2
+        if escaped_i or (near[i] & 1) != 0:
+            terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, None, g)
+
+
+@njit(inline="always")
+def listed_forces(i0, i1, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, buf):
+    """Listed pair forces (each pair once: added to i, subtracted from j) and terrain contacts of
+    the balls in storage slots [i0, i1), in that order, skipping escaped balls' pairs (and pairs
+    with an escaped ball); the terrain is tested for the balls listed near it and the escaped ones.
+    ``buf`` is a (PAIR_ROWS, >= max(PAIR_BLOCK, the list's capacity)) scratch block.
+
+    Without friction the pairs go block by block (gather, :func:`_block_law`, scatter): the same
+    arithmetic in the same order as one loop over the list (every entry evaluated without a
+    branch, masked by the contact test, i's share summed in registers), so the same forces bit for
+    bit, with the law's square roots and divisions four pairs at a time. It agrees with
+    pair_contact to round-off (``tests/physics/test_neighbour_list.py``). The partners are read
+    through flat views with unsigned slots (``j * D + k``: no negative-index wraparound, no runtime
+    stride). Friction goes through pair_contact itself, one ball after another.
     """
     D = len(g)
     if friction is not None:
-        for m in range(cnt[i]):
-            j = nbr[i, m]
-            if ne == 0 or escaped[j] == 0:
-                pair_contact(FORCE, 0, i, j, xs, vs, a, 0.0, True, sm, friction, g)
+        for i in range(i0, i1):
+            escaped_i = _skips(i, escaped, ne)
+            if not escaped_i:
+                for m in range(cnt[i]):
+                    j = nbr[i, m]
+                    if ne == 0 or escaped[j] == 0:
+                        pair_contact(FORCE, 0, i, j, xs, vs, a, 0.0, True, sm, friction, g)
+            if escaped_i or (near[i] & 1) != 0:
+                terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
         return
-    ks = sm.ks
-    kd = sm.kd
-    radii = sm.radii
-    no_tension = sm.no_tension
-    ri = radii[i]
-    p0 = xs[0, i, 0]
-    p1 = xs[0, i, 1]
-    p2 = xs[0, i, 2] if D == 3 else 0.0
-    u0 = vs[0, i, 0]
-    u1 = vs[0, i, 1]
-    u2 = vs[0, i, 2] if D == 3 else 0.0
-    f0 = 0.0
-    f1 = 0.0
-    f2 = 0.0
-    coincident = False
-    for m in range(cnt[i]):
-        # an unsigned slot: no negative-index wraparound to compute on every load and store
-        j = np.uint64(nbr[i, m])
-        c = j * np.uint64(D)
-        l0 = ri + radii[j]
-        d0 = xf[c + np.uint64(0)] - p0
-        d1 = xf[c + np.uint64(1)] - p1
-        d2 = xf[c + np.uint64(2)] - p2 if D == 3 else 0.0
-        dist2 = d0 * d0 + d1 * d1 + d2 * d2
-        dist = np.sqrt(dist2)
-        inv = 1.0 / dist
-        w0 = vf[c + np.uint64(0)] - u0
-        w1 = vf[c + np.uint64(1)] - u1
-        w2 = vf[c + np.uint64(2)] - u2 if D == 3 else 0.0
-        vn = (w0 * d0 + w1 * d1 + w2 * d2) * inv
-        fn = -ks * (l0 - dist) + kd * vn  # along +n on i, as in pair_contact
-        if no_tension:
-            fn = min(fn, 0.0)
-        # coincident centres (inv = inf, fn nan) are masked here and handed to pair_contact below;
-        # & rather than and / or: no branch
-        coincident |= dist2 == 0.0
-        touch = (dist2 < l0 * l0) & (dist2 != 0.0) & (escaped[j] == 0)
-        fn = fn * inv if touch else 0.0
-        e0 = fn * d0
-        e1 = fn * d1
-        f0 += e0
-        f1 += e1
-        af[c + np.uint64(0)] -= e0
-        af[c + np.uint64(1)] -= e1
-        if D == 3:
-            e2 = fn * d2
-            f2 += e2
-            af[c + np.uint64(2)] -= e2
-    if coincident:  # before i's sum is added, as if in the loop: each listed j appears once
-        for m in range(cnt[i]):
-            j = np.uint64(nbr[i, m])
-            d0 = xs[0, j, 0] - p0
-            d1 = xs[0, j, 1] - p1
-            d2 = xs[0, j, 2] - p2 if D == 3 else 0.0
-            if d0 * d0 + d1 * d1 + d2 * d2 == 0.0 and (ne == 0 or escaped[j] == 0):
-                pair_contact(FORCE, 0, i, nbr[i, m], xs, vs, a, 0.0, True, sm, friction, g)
-    a[0, i, 0] += f0
-    a[0, i, 1] += f1
-    if D == 3:
-        a[0, i, 2] += f2
+    xf = xs.reshape(xs.size)
+    vf = vs.reshape(vs.size)
+    af = a.reshape(a.size)
+    nbf = nbr.reshape(nbr.size)
+    width = nbr.shape[1]
+    cap = 0.0 if sm.no_tension else np.inf
+    start = i0
+    while start < i1:
+        end, pairs = _gather(start, i1, xf, vf, nbf, width, cnt, sm.radii, escaped, ne, buf, D)
+        coincident = _block_law(pairs, buf, sm.ks, sm.kd, cap)
+        _scatter(start, end, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, coincident, D)
+        start = end

@@ -27,8 +27,8 @@ from numba.extending import overload
 
 from .._jit import entry_point, njit, prange
 from .broadphase import build_grid, neighbour_rows, new_grid
-from .contact import FORCE, general_terrain_row, pair_contact, shape_dist2, terrain_contact
-from .contact_listed import pair_contact_listed
+from .contact import FORCE, general_terrain_row, pair_contact, shape_dist2
+from .contact_listed import PAIR_BLOCK, PAIR_ROWS, listed_forces
 from .geometry import advance_geometry, geometry_clearance, model_geometry_type, world_slice
 from .integrators import STATUS_OK, final_status
 from .model import SlimModel
@@ -83,6 +83,7 @@ LargeWorld = namedtuple(
         "escaped",  # (n,) int8: 1 once the slot has moved skin / 2 from xref
         "escapes",  # (max_escapes,) the escaped slots, in the order they escaped
         "moved",  # (threads,) per thread: how many slots escaped in the last step (-1: not finite)
+        "pairs",  # (threads, PAIR_ROWS, max(PAIR_BLOCK, cap)) per thread: the force pass's block of pairs
         "skin",  # list reach beyond contact
         "state",  # (4,) int64: [list valid, largest count at the last build, builds so far, escaped]
     ],
@@ -224,19 +225,27 @@ def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g)
     D = len(g)
     marked = 0
     blown = False
+    # flat views, unsigned slots: no negative-index wraparound, no runtime stride per element
+    xf = xs.reshape(xs.size)
+    vf = vs.reshape(vs.size)
+    af = a.reshape(a.size)
+    rf = xref.reshape(xref.size)
+    ef = es.reshape(es.size)
     for i in range(i0, i1):
         im = sm.inv_mass[i]
         d2 = 0.0
+        base = np.uint64(i) * np.uint64(D)
         for k in range(D):
-            ak = (a[0, i, k] + (es[0, i, k] if ext is not None else 0.0)) * im + g[k]
-            a[0, i, k] = 0.0  # ready for the next step's forces
+            e = base + np.uint64(k)
+            ak = (af[e] + (ef[e] if ext is not None else 0.0)) * im + g[k]
+            af[e] = 0.0  # ready for the next step's forces
             if integ == SYMPLECTIC_EULER:
-                vs[0, i, k] += dt * ak
-                xs[0, i, k] += dt * vs[0, i, k]
+                vf[e] += dt * ak
+                xf[e] += dt * vf[e]
             else:
-                xs[0, i, k] += dt * vs[0, i, k]
-                vs[0, i, k] += dt * ak
-            dk = xs[0, i, k] - xref[i, k]
+                xf[e] += dt * vf[e]
+                vf[e] += dt * ak
+            dk = xf[e] - rf[e]
             d2 += dk * dk
         if not d2 < half2:
             blown = blown or not np.isfinite(d2)
@@ -268,20 +277,13 @@ def _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne):
 
 
 @njit
-def _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne):
-    """Listed pair forces and terrain contacts of every ball in slab s (serial, storage order). The
-    terrain is tested for the balls listed near it and for the escaped ones (which may have come
-    near it since the build). A function of its own, not inlined: each inlined call site would
-    compile the force law again."""
-    xf = xs.reshape(xs.size)
-    vf = vs.reshape(vs.size)
-    af = a.reshape(a.size)
-    for i in range(start[s * layer], start[(s + 1) * layer]):
-        escaped_i = ne > 0 and escaped[i] != 0
-        if not escaped_i:
-            pair_contact_listed(i, xs, vs, a, nbr, cnt, sm, friction, g, escaped, ne, xf, vf, af)
-        if escaped_i or (near[i] & 1) != 0:
-            terrain_contact(FORCE, 0, i, xs, vs, a, 0.0, sm, friction, g)
+def _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, buf):
+    """Listed pair forces and terrain contacts of every ball in slab s (serial, storage order:
+    :func:`.contact_listed.listed_forces`, ``buf`` its block of the calling thread). A function of
+    its own, not inlined: each inlined call site would compile the force law again."""
+    listed_forces(
+        start[s * layer], start[(s + 1) * layer], xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, buf
+    )
 
 
 @njit(parallel=True)
@@ -328,7 +330,7 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
     # stores through ``tuple.field[i] = ...`` inside a parallel loop; reads are fine)
     xs, vs, a, es, grid = lw.x, lw.v, lw.a, lw.ext, lw.grid
     perm, nbr, cnt, near, moved = lw.perm, lw.nbr, lw.count, lw.near, lw.moved
-    xref, escaped, escapes = lw.xref, lw.escaped, lw.escapes
+    xref, escaped, escapes, pairs = lw.xref, lw.escaped, lw.escapes, lw.pairs
     start = grid.start[0]
     threads = max(1, min(threads, moved.shape[0]))
     half2 = 0.25 * lw.skin * lw.skin
@@ -388,7 +390,7 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
         slabs = grid.dims[0, D - 1]
         for t in prange(threads):
             for q in range(t, (slabs + 1) // 2, threads):  # round robin: the slabs differ in size
-                _slab_forces(2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne)
+                _slab_forces(2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, pairs[t])
         for t in prange(threads):
             marked = 0
             # (an int64 copy of t: a prange index may be unsigned, and int64 with uint64 unifies to float)
@@ -398,7 +400,7 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
                 s1 = 1
                 if q >= 0:
                     s0 = 1 + 2 * q
-                    _slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne)
+                    _slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, pairs[t])
                     s1 = min(s0 + 2, slabs)  # this slab and the next, contiguous in storage
                 m = _advance(
                     integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, ext, sm, xref, escaped, half2, g
@@ -506,6 +508,7 @@ class NeighbourLists:
             escaped=np.zeros(n, dtype=np.int8),
             escapes=np.zeros(int(np.clip(n // 256, 64, LARGE_WORLD_MAX_ESCAPES)), dtype=np.int64),
             moved=np.zeros(self.threads, dtype=np.int64),  # one per thread
+            pairs=np.zeros((self.threads, PAIR_ROWS, max(PAIR_BLOCK, cap))),
             skin=self.skin,
             state=np.zeros(4, dtype=np.int64),
         )

@@ -62,3 +62,14 @@ def test_pair_cost_law_row_is_the_package_law_bit_for_bit(tmp_path):
     ns = pair_cost.measure(1000, steps=1, reps=1, cache_dir=tmp_path)
     assert set(ns) == {*pair_cost.VARIANTS, "force pass", "listed pairs per ball"}
     assert all(math.isfinite(t) and t > 0 for t in ns.values()), ns
+
+
+def test_the_list_pass_block_law_compiles_to_vector_code():
+    """The frictionless list pass computes its pairs' forces in one loop per block that LLVM
+    vectorises (square roots and divisions of several pairs per instruction): a branch or a gather
+    added to ``contact_listed._block_law`` would silently make it scalar again."""
+    from penalty_env.bench import pair_cost
+
+    code = pair_cost.block_law_vector_code()
+    assert code["<4 x double>"] + code["<2 x double>"] > 0, code
+    assert code["vsqrtpd"] > 0 and code["vdivpd"] > 0, code
