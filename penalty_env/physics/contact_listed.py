@@ -22,10 +22,10 @@ __all__ = ["PAIR_BLOCK", "PAIR_ROWS", "listed_forces"]
 # settled 10^5 bed (docs/scale.md, section 4); 128 keeps a batch of small worlds' buffers small.
 PAIR_BLOCK = 128
 # the block buffer's rows: per pair, its centre distance squared, the dot product of the relative
-# velocity with the centre offset, the rest distance r_i + r_j, the contact test's bound (its
-# square, or -1 when j has escaped the list), and the computed force over distance
-_DIST2, _DOT, _REST, _REACH2, _FORCE = 0, 1, 2, 3, 4
-PAIR_ROWS = 5
+# velocity with the centre offset, the rest distance r_i + r_j (-1 when j has escaped the list),
+# and the computed force over distance
+_DIST2, _DOT, _REST, _FORCE = 0, 1, 2, 3
+PAIR_ROWS = 4
 
 
 @njit
@@ -38,17 +38,17 @@ def _block_law(pairs, buf, ks, kd, cap):
     dist2s = buf[_DIST2]
     dots = buf[_DOT]
     rest = buf[_REST]
-    reach2 = buf[_REACH2]
     out = buf[_FORCE]
     coincident = 0
     for k in range(pairs):
         dist2 = dist2s[k]
+        l0 = rest[k]
         dist = np.sqrt(dist2)
         inv = 1.0 / dist
         vn = dots[k] * inv
-        fn = -ks * (rest[k] - dist) + kd * vn  # along +n on i, as in pair_contact
+        fn = -ks * (l0 - dist) + kd * vn  # along +n on i, as in pair_contact
         fn = min(fn, cap)  # cap 0 without tension, else inf (fn itself)
-        touch = (dist2 < reach2[k]) & (dist2 != 0.0)
+        touch = (dist2 < l0 * l0) & (dist2 != 0.0) & (l0 > 0.0)
         out[k] = fn * inv if touch else 0.0
         coincident += dist2 == 0.0
     return coincident
@@ -62,13 +62,12 @@ def _skips(i, escaped, ne):
 
 @njit(inline="always")
 def _gather(i0, i1, xf, vf, nbf, cap, cnt, radii, escaped, ne, buf, D):
-    """The block's scalars (rows _DIST2 to _REACH2) for balls i0, i0 + 1, ... of [i0, i1) while their
+    """The block's scalars (rows _DIST2 to _REST) for balls i0, i0 + 1, ... of [i0, i1) while their
     pairs fit in ``buf``. Returns the ball after the last one gathered and the pairs gathered."""
     size = buf.shape[1]
     dist2s = buf[_DIST2]
     dots = buf[_DOT]
     rest = buf[_REST]
-    reach2 = buf[_REACH2]
     k = 0
     i = i0
     while i < i1 and k + cnt[i] <= size:
@@ -95,9 +94,9 @@ def _gather(i0, i1, xf, vf, nbf, cap, cnt, radii, escaped, ne, buf, D):
                 w2 = vf[c + np.uint64(2)] - u2 if D == 3 else 0.0
                 dist2s[k] = d0 * d0 + d1 * d1 + d2 * d2
                 dots[k] = w0 * d0 + w1 * d1 + w2 * d2
-                rest[k] = l0
-                # a pair with an escaped ball is not a listed one (the caller meets it): never touching
-                reach2[k] = l0 * l0 if (ne == 0 or escaped[j] == 0) else -1.0
+                # a pair with an escaped ball is not a listed one (the caller meets it): never
+                # touching, marked by a negative rest length (r_i + r_j > 0 for any pair)
+                rest[k] = l0 if (ne == 0 or escaped[j] == 0) else -1.0
                 k += 1
         i += 1
     return i, k
