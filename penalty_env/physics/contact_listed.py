@@ -61,7 +61,7 @@ def _skips(i, escaped, ne):
 
 
 @njit(inline="always")
-def _gather(i0, i1, xf, vf, nbf, cap, cnt, radii, escaped, ne, buf, D):
+def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, escaped, ne, buf, D):
     """The block's scalars (rows _DIST2 to _REST) for balls i0, i0 + 1, ... of [i0, i1) while their
     pairs fit in ``buf``. Returns the ball after the last one gathered and the pairs gathered."""
     size = buf.shape[1]
@@ -73,7 +73,7 @@ def _gather(i0, i1, xf, vf, nbf, cap, cnt, radii, escaped, ne, buf, D):
     while i < i1 and k + cnt[i] <= size:
         if not _skips(i, escaped, ne):
             ui = np.uint64(i) * np.uint64(D)
-            row = np.uint64(i) * np.uint64(cap)
+            row = np.uint64(i) * np.uint64(width)
             ri = radii[i]
             p0 = xf[ui]
             p1 = xf[ui + np.uint64(1)]
@@ -103,7 +103,7 @@ def _gather(i0, i1, xf, vf, nbf, cap, cnt, radii, escaped, ne, buf, D):
 
 
 @njit(inline="always")
-def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, cap, cnt, near, sm, g, escaped, ne, buf, coincident, D):
+def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, coincident, D):
     """Apply the block's forces (row _FORCE) of balls [i0, i1), ball after ball in the order
     gathered: j's share subtracted from a_j, i's summed in registers and added after its pairs;
     coincident centres through pair_contact (before i's sum, as if in the loop: each listed j
@@ -120,7 +120,7 @@ def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, cap, cnt, near, sm, g, escaped
             f0 = 0.0
             f1 = 0.0
             f2 = 0.0
-            row = np.uint64(i) * np.uint64(cap)
+            row = np.uint64(i) * np.uint64(width)
             for m in range(cnt[i]):
                 j = np.uint64(nbf[row + np.uint64(m)])
                 c = j * np.uint64(D)
