@@ -116,7 +116,7 @@ def block_law_vector_code() -> dict[str, int]:
     from ..physics.contact_listed import _block_law
 
     fn = njit(cache=False)(_block_law.py_func)
-    fn.compile((types.int64, types.float64[:, ::1], types.float64, types.float64, types.float64))
+    fn.compile((types.int64, types.float64[:, ::1], types.float64, types.float64, types.float64, types.int64))
     ir = "".join(fn.inspect_llvm().values())
     asm = "".join(fn.inspect_asm().values())
     return {

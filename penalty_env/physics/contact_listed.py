@@ -2,10 +2,11 @@
 
 :func:`listed_forces` is :func:`.contact.pair_contact` (FORCE mode) for the balls of a range of the
 Verlet neighbour list of :mod:`.neighbour_list`. Without friction it runs in blocks of pairs, in
-three loops: a gather of each listed pair's scalars (from the two balls' states), one loop over the
-block that computes every pair's force without a branch (LLVM vectorises it: four pairs per
-instruction, square roots and divisions included), and the scatter of those forces to both balls,
-masked by the contact test. With friction, or for coincident centres, it calls the reference itself.
+three loops: a gather of each listed pair's centre offset, v.d and rest length (from the two balls'
+states; with every radius equal, the rest length without reading the partner's radius), one loop
+over the block that computes every pair's force vector without a branch (LLVM vectorises it: four
+pairs per instruction, square roots and divisions included), and the scatter of those forces to
+both balls, masked by the contact test. With friction, or for coincident centres, it calls the reference itself.
 """
 
 from __future__ import annotations
@@ -21,27 +22,33 @@ __all__ = ["PAIR_BLOCK", "PAIR_ROWS", "listed_forces"]
 # least the list's capacity, so that any one ball's pairs fit): 128 to 512 measured alike on the
 # settled 10^5 bed (docs/scale.md, section 4); 128 keeps a batch of small worlds' buffers small.
 PAIR_BLOCK = 128
-# the block buffer's rows: per pair, its centre distance squared, the dot product of the relative
-# velocity with the centre offset, the rest distance r_i + r_j (-1 when j has escaped the list),
-# and the computed force over distance
-_DIST2, _DOT, _REST, _FORCE = 0, 1, 2, 3
-PAIR_ROWS = 4
+# the block buffer's rows: per pair, the centre offset x_j - x_i (its third component only in 3D),
+# the dot product of the relative velocity with it, and the rest distance r_i + r_j (-1 when j has
+# escaped the list); the law overwrites the offset with the force on j (the force over distance
+# times the offset), which the scatter adds
+_D0, _D1, _D2, _DOT, _REST = 0, 1, 2, 3, 4
+PAIR_ROWS = 5
 
 
 @njit
-def _block_law(pairs, buf, ks, kd, cap):
-    """Every pair of the block's force along its centre offset, over the distance (0 when apart,
-    coincident or escaped): the FORCE law of :func:`.contact.pair_contact`, operations in the same
-    order as the reference list loop had them. One loop with no branch and no gather: LLVM
-    vectorises it (``<4 x double>``, ``vsqrtpd``, ``vdivpd``: the same IEEE results lane by lane).
-    Returns how many of the pairs have coincident centres (masked here: their normal is 0 / 0)."""
-    dist2s = buf[_DIST2]
+def _block_law(pairs, buf, ks, kd, cap, D):
+    """Every pair of the block's force along its centre offset (0 when apart, coincident or
+    escaped), written over the offset: the FORCE law of :func:`.contact.pair_contact`, operations
+    in the same order as the reference list loop had them. One loop with no branch and no gather:
+    LLVM vectorises it (``<4 x double>``, ``vsqrtpd``, ``vdivpd``: the same IEEE results lane by
+    lane). Returns how many of the pairs have coincident centres (masked here: their normal is
+    0 / 0)."""
+    r0 = buf[_D0]
+    r1 = buf[_D1]
+    r2 = buf[_D2]
     dots = buf[_DOT]
     rest = buf[_REST]
-    out = buf[_FORCE]
     coincident = 0
     for k in range(pairs):
-        dist2 = dist2s[k]
+        d0 = r0[k]
+        d1 = r1[k]
+        d2 = r2[k] if D == 3 else 0.0
+        dist2 = d0 * d0 + d1 * d1 + d2 * d2
         l0 = rest[k]
         dist = np.sqrt(dist2)
         inv = 1.0 / dist
@@ -49,7 +56,11 @@ def _block_law(pairs, buf, ks, kd, cap):
         fn = -ks * (l0 - dist) + kd * vn  # along +n on i, as in pair_contact
         fn = min(fn, cap)  # cap 0 without tension, else inf (fn itself)
         touch = (dist2 < l0 * l0) & (dist2 != 0.0) & (l0 > 0.0)
-        out[k] = fn * inv if touch else 0.0
+        over = fn * inv if touch else 0.0
+        r0[k] = over * d0
+        r1[k] = over * d1
+        if D == 3:
+            r2[k] = over * d2
         coincident += dist2 == 0.0
     return coincident
 
@@ -61,11 +72,14 @@ def _skips(i, escaped, ne):
 
 
 @njit(inline="always")
-def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, escaped, ne, buf, D):
-    """The block's scalars (rows _DIST2 to _REST) for balls i0, i0 + 1, ... of [i0, i1) while their
-    pairs fit in ``buf``. Returns the ball after the last one gathered and the pairs gathered."""
+def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, diameter, escaped, ne, buf, D):
+    """The block's pairs (rows _D0 to _REST) for balls i0, i0 + 1, ... of [i0, i1) while their
+    pairs fit in ``buf``. ``diameter`` > 0: every pair's r_i + r_j (all radii equal: no partner's
+    radius read). Returns the ball after the last one gathered and the pairs gathered."""
     size = buf.shape[1]
-    dist2s = buf[_DIST2]
+    r0 = buf[_D0]
+    r1 = buf[_D1]
+    r2 = buf[_D2]
     dots = buf[_DOT]
     rest = buf[_REST]
     k = 0
@@ -85,14 +99,17 @@ def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, escaped, ne, buf, D):
                 # an unsigned slot: no negative-index wraparound to compute on every load
                 j = np.uint64(nbf[row + np.uint64(m)])
                 c = j * np.uint64(D)
-                l0 = ri + radii[j]
+                l0 = diameter if diameter > 0.0 else ri + radii[j]
                 d0 = xf[c] - p0
                 d1 = xf[c + np.uint64(1)] - p1
                 d2 = xf[c + np.uint64(2)] - p2 if D == 3 else 0.0
                 w0 = vf[c] - u0
                 w1 = vf[c + np.uint64(1)] - u1
                 w2 = vf[c + np.uint64(2)] - u2 if D == 3 else 0.0
-                dist2s[k] = d0 * d0 + d1 * d1 + d2 * d2
+                r0[k] = d0
+                r1[k] = d1
+                if D == 3:
+                    r2[k] = d2
                 dots[k] = w0 * d0 + w1 * d1 + w2 * d2
                 # a pair with an escaped ball is not a listed one (the caller meets it): never
                 # touching, marked by a negative rest length (r_i + r_j > 0 for any pair)
@@ -104,11 +121,13 @@ def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, escaped, ne, buf, D):
 
 @njit(inline="always")
 def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, coincident, D):
-    """Apply the block's forces (row _FORCE) of balls [i0, i1), ball after ball in the order
-    gathered: j's share subtracted from a_j, i's summed in registers and added after its pairs;
-    coincident centres through pair_contact (before i's sum, as if in the loop: each listed j
+    """Apply the block's forces (rows _D0 to _D2 after the law) of balls [i0, i1), ball after
+    ball in the order gathered: j's share subtracted from a_j, i's summed in registers and added
+    after its pairs; coincident centres through pair_contact (before i's sum, as if in the loop: each listed j
     appears once); then the terrain of a ball listed near it or escaped."""
-    forces = buf[_FORCE]
+    r0 = buf[_D0]
+    r1 = buf[_D1]
+    r2 = buf[_D2]
     k = 0
     for i in range(i0, i1):
         escaped_i = _skips(i, escaped, ne)
@@ -124,18 +143,17 @@ def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escap
             for m in range(cnt[i]):
                 j = np.uint64(nbf[row + np.uint64(m)])
                 c = j * np.uint64(D)
-                fn = forces[k]
-                k += 1
-                e0 = fn * (xf[c] - p0)
-                e1 = fn * (xf[c + np.uint64(1)] - p1)
+                e0 = r0[k]
+                e1 = r1[k]
                 f0 += e0
                 f1 += e1
                 af[c] -= e0
                 af[c + np.uint64(1)] -= e1
                 if D == 3:
-                    e2 = fn * (xf[c + np.uint64(2)] - p2)
+                    e2 = r2[k]
                     f2 += e2
                     af[c + np.uint64(2)] -= e2
+                k += 1
             if coincident > 0:  # in this block: test this ball's pairs
                 for m in range(cnt[i]):
                     j = np.uint64(nbr[i, m])
@@ -188,7 +206,7 @@ def listed_forces(i0, i1, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, n
     cap = 0.0 if sm.no_tension else np.inf
     start = i0
     while start < i1:
-        end, pairs = _gather(start, i1, xf, vf, nbf, width, cnt, sm.radii, escaped, ne, buf, D)
-        coincident = _block_law(pairs, buf, sm.ks, sm.kd, cap)
+        end, pairs = _gather(start, i1, xf, vf, nbf, width, cnt, sm.radii, sm.diameter, escaped, ne, buf, D)
+        coincident = _block_law(pairs, buf, sm.ks, sm.kd, cap, D)
         _scatter(start, end, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, coincident, D)
         start = end

@@ -82,12 +82,20 @@ class SlimModel(NamedTuple):
     kd_terrain: float
     no_tension: bool
     cell_size: float
+    # r_i + r_j of every pair when all the radii are equal (the list pass then reads no partner's
+    # radius: one stream of random loads fewer per pair), else 0.0
+    diameter: float
 
     @classmethod
     def of(cls, model: Model, **changes: Any) -> SlimModel:
-        """The slim view of ``model`` (arrays shared), with ``changes`` applied."""
-        fields = {name: getattr(model, name) for name in cls._fields}
+        """The slim view of ``model`` (arrays shared), with ``changes`` applied; ``diameter`` is
+        computed from the radii unless given."""
+        fields = {name: getattr(model, name) for name in cls._fields if name != "diameter"}
         fields.update(changes)
+        if "diameter" not in fields:
+            radii = np.asarray(fields["radii"])
+            same = radii.size > 0 and bool(np.all(radii == radii.flat[0]))
+            fields["diameter"] = float(radii.flat[0] + radii.flat[0]) if same else 0.0
         return cls(**fields)
 
 

@@ -147,6 +147,37 @@ def test_neighbour_list_world_matches_all_pairs_while_balls_escape_and_lists_reb
     assert g.neighbour_list_stats()["builds"] > 1, "the list must have been rebuilt"
 
 
+@pytest.mark.parametrize("d", [2, 3])
+def test_equal_radii_skip_the_partner_radius_and_change_no_bit(d, contact_kwargs):
+    """With every radius equal, the list pass takes r_i + r_j as the World's one diameter (the
+    list's SlimModel.diameter) instead of reading the partner's radius: bit for bit the general
+    path's trajectories (the same world with the diameter cleared), escapes and rebuilds included;
+    unequal radii leave the diameter 0 (the general path)."""
+    n = LARGE_WORLD_MIN_BALLS + 72
+    x, radii, masses, bowl = _pile(n, d, seed=d)
+    assert np.all(radii == radii[0])
+    kw = contact_kwargs(masses, zeta=0.3)
+    v = np.random.default_rng(5).normal(0.0, 0.05, x.shape)
+    v[0, 0] = 3.0
+    same, general = (
+        World(x, radii, masses, v, terrain=bowl, broadphase="grid", allow_unstable=True, **kw) for _ in range(2)
+    )
+    lists = general._runner.lists
+    assert same._runner.lists.worlds[0][1].diameter == 2.0 * radii[0]
+    lists.worlds[0] = (lists.worlds[0][0], lists.worlds[0][1]._replace(diameter=0.0))
+    escaped = 0
+    for _ in range(15):
+        for w in (same, general):
+            w.step(20)
+        escaped = max(escaped, general.neighbour_list_stats()["escaped"])
+    assert escaped > 0 and general.neighbour_list_stats()["builds"] > 1
+    np.testing.assert_array_equal(same.positions, general.positions)
+    np.testing.assert_array_equal(same.velocities, general.velocities)
+    mixed = radii * np.where(np.arange(n) % 2 == 0, 1.0, 0.9)
+    poly = World(x, mixed, masses, v, terrain=bowl, broadphase="grid", allow_unstable=True, **kw)
+    assert poly._runner.lists.worlds[0][1].diameter == 0.0
+
+
 def test_a_ball_listed_far_from_the_terrain_still_bounces_off_it_after_escaping(contact_kwargs):
     """A list world tests the terrain only for balls that were within a skin of it at the build
     (and for escaped balls). A ball shot from the side of a pile, listed far from every shape,
