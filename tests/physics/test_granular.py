@@ -175,29 +175,37 @@ def test_silo_orifice_is_open(dim):
 
 @pytest.mark.slow
 def test_slot_discharge_follows_beverloo_two_dimensional_law():
-    """A flat-bottomed 2D silo (32 d wide, 1100 disks, one fill of the bench's) drains through slots of
-    width D = 5 to 12 d. Beverloo's law, W = C rho_b sqrt(g) (D - k d)^b (Beverloo et al. 1961; in 2D
-    b = 3/2: Mankoc et al. 2007, Janda et al. 2012): fitted with b free, b is 3/2 within 0.3 (the
-    target); with b fixed at 3/2, k lies within Beverloo's 1 to 3 grain diameters, C is of order
-    one, and every rate lies within 10% of the law (twice the rates' relative scatter, about 5%,
-    measured from the two halves of each discharge). Fill-height independence: for D >= 6 d the
-    rates over the two halves of the middle of the discharge (fill height 27 d, then 21 to 15 d)
-    differ by less than 10% (the target); at D = 5 d, where the flow is intermittent (arches form
-    and break), by less than 30% (measured 23%; docs/granular.md, "Beverloo")."""
+    """A flat-bottomed 2D silo (32 d wide, 1100 disks, the bench's five fills) drains through slots
+    of width D = 5 to 12 d. Beverloo's law, W = C rho_b sqrt(g) (D - k d)^b (Beverloo et al. 1961;
+    in 2D b = 3/2: Mankoc et al. 2007, Janda et al. 2012), fitted to the rates averaged over the
+    fills that flowed: with b free, b is 3/2 within 0.3 (the target); with b fixed at 3/2, k lies
+    within Beverloo's 1 to 3 grain diameters, C is of order one, and every rate lies within 5% of
+    the law (three times the rates' relative error, 1.7%). Fill-height independence, the rates over
+    the two halves of the middle of the discharge (fill height 27 d, then 21 to 15 d) averaged over
+    the fills: within 10% for D >= 6 d (the target; one fill's halves scatter by 3 to 10%, so a single
+    fill does not decide it). At D = 5 d, where arches form and break and fills clog, at least two
+    fills must flow, and their mean difference stays below 20% (measured 11%, over three fills of
+    five: docs/granular.md, "Beverloo", where it fails the 10% target)."""
     cfg = gr.BEVERLOO_2D
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        runs = gr.discharge(2, cfg["orifices"], n=cfg["n"], width=cfg["width"], seed=cfg["seeds"][0])
-    for r in runs:
-        a, b = r.rate_windows
-        assert abs(a - b) / r.rate < (0.10 if r.D >= 6.0 else 0.30), (r.D, r.rate_windows)
-    D = np.array([r.D for r in runs])
-    W = np.array([r.rate for r in runs])
-    assert D.size >= 4 and np.all(np.isfinite(W))
-    fit = gr.beverloo_fit(D, W, 2, runs[0].bulk_density)
-    assert abs(fit["b"] - 1.5) < 0.3
-    law = fit["C_fixed"] * runs[0].bulk_density * (D - fit["k_fixed"]) ** 1.5
-    assert np.all(np.abs(W / law - 1.0) < 0.10)
+        runs = [
+            r
+            for seed in cfg["seeds"]
+            for r in gr.discharge(2, cfg["orifices"], n=cfg["n"], width=cfg["width"], seed=seed)
+        ]
+    tab = gr.beverloo_table(runs)
+    D, W = tab["D"], tab["W"]
+    assert D.size == len(cfg["orifices"]) and np.all(np.isfinite(W))
+    flowed = {d: sum(r.D == d and np.isfinite(r.rate) for r in runs) for d in cfg["orifices"]}
+    assert all(k >= 2 for k in flowed.values()), flowed
+    halves = dict(zip(D, tab["halves_diff"], strict=True))
+    for d, diff in halves.items():
+        assert abs(diff) < (0.10 if d >= 6.0 else 0.20), (d, diff)
+    fit = gr.beverloo_fit(D, W, 2, tab["rho_b"], sigma=tab["sigma"])
+    assert abs(fit["b"] - 1.5) < 0.3, fit
+    law = fit["C_fixed"] * tab["rho_b"] * (D - fit["k_fixed"]) ** 1.5
+    assert np.all(np.abs(W / law - 1.0) < 0.05), W / law - 1.0
     assert 1.0 < fit["k_fixed"] < 3.0
     assert 0.3 < fit["C_fixed"] < 2.0
 
