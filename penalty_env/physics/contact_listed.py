@@ -7,6 +7,8 @@ states; with every radius equal, the rest length without reading the partner's r
 over the block that computes every pair's force vector without a branch (LLVM vectorises it: four
 pairs per instruction, square roots and divisions included), and the scatter of those forces to
 both balls, masked by the contact test. With friction, or for coincident centres, it calls the reference itself.
+The gather and the scatter address the block's rows through one flat view; for the usual block
+(PAIR_BLOCK long) their stride is a compile-time constant, so one base register serves all five.
 """
 
 from __future__ import annotations
@@ -72,19 +74,15 @@ def _skips(i, escaped, ne):
 
 
 @njit(inline="always")
-def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, diameter, escaped, ne, buf, D):
+def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, diameter, escaped, ne, buf, stride, D):
     """The block's pairs (rows _D0 to _REST) for balls i0, i0 + 1, ... of [i0, i1) while their
     pairs fit in ``buf``. ``diameter`` > 0: every pair's r_i + r_j (all radii equal: no partner's
     radius read). Returns the ball after the last one gathered and the pairs gathered."""
-    size = buf.shape[1]
-    r0 = buf[_D0]
-    r1 = buf[_D1]
-    r2 = buf[_D2]
-    dots = buf[_DOT]
-    rest = buf[_REST]
-    k = 0
+    bf = buf.reshape(buf.size)
+    S = np.uint64(stride)
+    k = np.uint64(0)
     i = i0
-    while i < i1 and k + cnt[i] <= size:
+    while i < i1 and k + np.uint64(cnt[i]) <= S:
         if not _skips(i, escaped, ne):
             ui = np.uint64(i) * np.uint64(D)
             row = np.uint64(i) * np.uint64(width)
@@ -106,29 +104,54 @@ def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, diameter, escaped, ne, buf, 
                 w0 = vf[c] - u0
                 w1 = vf[c + np.uint64(1)] - u1
                 w2 = vf[c + np.uint64(2)] - u2 if D == 3 else 0.0
-                r0[k] = d0
-                r1[k] = d1
+                bf[k] = d0
+                bf[S + k] = d1
                 if D == 3:
-                    r2[k] = d2
-                dots[k] = w0 * d0 + w1 * d1 + w2 * d2
+                    bf[np.uint64(2) * S + k] = d2
+                bf[np.uint64(3) * S + k] = w0 * d0 + w1 * d1 + w2 * d2
                 # a pair with an escaped ball is not a listed one (the caller meets it): never
                 # touching, marked by a negative rest length (r_i + r_j > 0 for any pair)
-                rest[k] = l0 if (ne == 0 or escaped[j] == 0) else -1.0
-                k += 1
+                bf[np.uint64(4) * S + k] = l0 if (ne == 0 or escaped[j] == 0) else -1.0
+                k += np.uint64(1)
         i += 1
-    return i, k
+    return i, np.int64(k)
 
 
 @njit(inline="always")
-def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, coincident, D):
+def _scatter_pairs(bf, stride, k, af, nbf, row, count, D):
+    """One ball's listed pairs from the block (its force rows ``stride`` apart in the flat view
+    ``bf``, from slot k): each partner's share subtracted from its acceleration, the ball's summed.
+    Returns the next slot and the ball's sum."""
+    S = np.uint64(stride)
+    f0 = 0.0
+    f1 = 0.0
+    f2 = 0.0
+    for m in range(count):
+        j = np.uint64(nbf[row + np.uint64(m)])
+        c = j * np.uint64(D)
+        e0 = bf[k]
+        e1 = bf[S + k]
+        f0 += e0
+        f1 += e1
+        af[c] -= e0
+        af[c + np.uint64(1)] -= e1
+        if D == 3:
+            e2 = bf[np.uint64(2) * S + k]
+            f2 += e2
+            af[c + np.uint64(2)] -= e2
+        k += np.uint64(1)
+    return k, f0, f1, f2
+
+
+@njit(inline="always")
+def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, fixed, coincident, D):
     """Apply the block's forces (rows _D0 to _D2 after the law) of balls [i0, i1), ball after
     ball in the order gathered: j's share subtracted from a_j, i's summed in registers and added
     after its pairs; coincident centres through pair_contact (before i's sum, as if in the loop: each listed j
-    appears once); then the terrain of a ball listed near it or escaped."""
-    r0 = buf[_D0]
-    r1 = buf[_D1]
-    r2 = buf[_D2]
-    k = 0
+    appears once); then the terrain of a ball listed near it or escaped. ``fixed``: the buffer is
+    PAIR_BLOCK long (its rows' stride a constant)."""
+    bf = buf.reshape(buf.size)
+    k = np.uint64(0)
     for i in range(i0, i1):
         escaped_i = _skips(i, escaped, ne)
         if not escaped_i:
@@ -136,24 +159,11 @@ def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escap
             p0 = xf[ui]
             p1 = xf[ui + np.uint64(1)]
             p2 = xf[ui + np.uint64(2)] if D == 3 else 0.0
-            f0 = 0.0
-            f1 = 0.0
-            f2 = 0.0
             row = np.uint64(i) * np.uint64(width)
-            for m in range(cnt[i]):
-                j = np.uint64(nbf[row + np.uint64(m)])
-                c = j * np.uint64(D)
-                e0 = r0[k]
-                e1 = r1[k]
-                f0 += e0
-                f1 += e1
-                af[c] -= e0
-                af[c + np.uint64(1)] -= e1
-                if D == 3:
-                    e2 = r2[k]
-                    f2 += e2
-                    af[c + np.uint64(2)] -= e2
-                k += 1
+            if fixed:  # the same loop, its rows at a compile-time stride
+                k, f0, f1, f2 = _scatter_pairs(bf, PAIR_BLOCK, k, af, nbf, row, cnt[i], D)
+            else:
+                k, f0, f1, f2 = _scatter_pairs(bf, buf.shape[1], k, af, nbf, row, cnt[i], D)
             if coincident > 0:  # in this block: test this ball's pairs
                 for m in range(cnt[i]):
                     j = np.uint64(nbr[i, m])
@@ -204,9 +214,21 @@ def listed_forces(i0, i1, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, n
     nbf = nbr.reshape(nbr.size)
     width = nbr.shape[1]
     cap = 0.0 if sm.no_tension else np.inf
+    # the usual buffer is PAIR_BLOCK long: its five rows then sit at compile-time offsets from one
+    # base register (the arithmetic loops only are compiled twice, not the calls of the reference)
+    fixed = buf.shape[1] == PAIR_BLOCK
     start = i0
     while start < i1:
-        end, pairs = _gather(start, i1, xf, vf, nbf, width, cnt, sm.radii, sm.diameter, escaped, ne, buf, D)
+        if fixed:
+            end, pairs = _gather(
+                start, i1, xf, vf, nbf, width, cnt, sm.radii, sm.diameter, escaped, ne, buf, PAIR_BLOCK, D
+            )  # fmt: skip
+        else:
+            end, pairs = _gather(
+                start, i1, xf, vf, nbf, width, cnt, sm.radii, sm.diameter, escaped, ne, buf, buf.shape[1], D
+            )  # fmt: skip
         coincident = _block_law(pairs, buf, sm.ks, sm.kd, cap, D)
-        _scatter(start, end, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, coincident, D)
+        _scatter(
+            start, end, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, fixed, coincident, D
+        )  # fmt: skip
         start = end

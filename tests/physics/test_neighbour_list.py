@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from penalty_env.physics import Bowl, Sphere, World
+from penalty_env.physics.contact_listed import PAIR_BLOCK
 from penalty_env.physics.world import LARGE_WORLD_MIN_BALLS
 from penalty_env.scenarios import balls_in_bowl
 
@@ -147,6 +148,19 @@ def test_neighbour_list_world_matches_all_pairs_while_balls_escape_and_lists_reb
     assert g.neighbour_list_stats()["builds"] > 1, "the list must have been rebuilt"
 
 
+def _step_alike(one, other, chunks):
+    """Step two list worlds 20 steps at a time, ``chunks`` times: balls escaped and the lists were
+    rebuilt on the way, and the two are the same bit for bit."""
+    escaped = 0
+    for _ in range(chunks):
+        for w in (one, other):
+            w.step(20)
+        escaped = max(escaped, other.neighbour_list_stats()["escaped"])
+    assert escaped > 0 and other.neighbour_list_stats()["builds"] > 1
+    np.testing.assert_array_equal(one.positions, other.positions)
+    np.testing.assert_array_equal(one.velocities, other.velocities)
+
+
 @pytest.mark.parametrize("d", [2, 3])
 def test_equal_radii_skip_the_partner_radius_and_change_no_bit(d, contact_kwargs):
     """With every radius equal, the list pass takes r_i + r_j as the World's one diameter (the
@@ -165,17 +179,33 @@ def test_equal_radii_skip_the_partner_radius_and_change_no_bit(d, contact_kwargs
     lists = general._runner.lists
     assert same._runner.lists.worlds[0][1].diameter == 2.0 * radii[0]
     lists.worlds[0] = (lists.worlds[0][0], lists.worlds[0][1]._replace(diameter=0.0))
-    escaped = 0
-    for _ in range(15):
-        for w in (same, general):
-            w.step(20)
-        escaped = max(escaped, general.neighbour_list_stats()["escaped"])
-    assert escaped > 0 and general.neighbour_list_stats()["builds"] > 1
-    np.testing.assert_array_equal(same.positions, general.positions)
-    np.testing.assert_array_equal(same.velocities, general.velocities)
+    _step_alike(same, general, 15)
     mixed = radii * np.where(np.arange(n) % 2 == 0, 1.0, 0.9)
     poly = World(x, mixed, masses, v, terrain=bowl, broadphase="grid", allow_unstable=True, **kw)
     assert poly._runner.lists.worlds[0][1].diameter == 0.0
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_the_block_buffer_stride_changes_no_bit(d, contact_kwargs):
+    """The frictionless pass reads its block buffer's rows at a compile-time stride when the buffer
+    is PAIR_BLOCK long (the usual case) and at the buffer's length when the list is wider than a
+    block: the same world with a list (and so a buffer) wider than a block steps bit for bit
+    alike, escapes and rebuilds included, equal and unequal radii."""
+    n = LARGE_WORLD_MIN_BALLS + 72
+    x, radii, masses, bowl = _pile(n, d, seed=d + 4)
+    kw = contact_kwargs(masses, zeta=0.3)
+    v = np.random.default_rng(6).normal(0.0, 0.05, x.shape)
+    v[0, 0] = 3.0
+    for r in (radii, radii * np.where(np.arange(n) % 3 == 0, 1.0, 0.85)):
+        usual, wide = (
+            World(x, r, masses, v, terrain=bowl, broadphase="grid", allow_unstable=True, **kw) for _ in range(2)
+        )
+        lists = wide._runner.lists
+        lists.worlds[0] = (lists._new(PAIR_BLOCK + 37), lists.worlds[0][1])  # a list as wide as that
+        lists.reset()
+        _step_alike(usual, wide, 12)
+        assert usual._runner.lists.worlds[0][0].pairs.shape[2] == PAIR_BLOCK
+        assert wide._runner.lists.worlds[0][0].pairs.shape[2] == PAIR_BLOCK + 37
 
 
 def test_a_ball_listed_far_from_the_terrain_still_bounces_off_it_after_escaping(contact_kwargs):
