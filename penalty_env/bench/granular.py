@@ -906,7 +906,9 @@ def zhou(r: Repose, d_mm: float = 1.0) -> float:
     return zhou_2002_model_a(r.mu, r.mu_r, d_mm) if r.mu > 0 and r.mu_r > 0 else 0.0
 
 
-BEVERLOO_2D = dict(orifices=(12.0, 10.0, 8.5, 7.0, 6.0, 5.0), n=1100, width=32.0, seeds=(2, 3, 4, 5, 6), time_max=300.0)
+BEVERLOO_2D = dict(
+    orifices=(12.0, 10.0, 8.5, 7.0, 6.0, 5.0), n=1100, width=32.0, seeds=tuple(range(2, 12)), time_max=300.0
+)
 BEVERLOO_3D = dict(orifices=(9.0, 8.0, 7.0, 6.0, 5.5, 5.0), n=4700, width=16.0, seeds=(2, 3), time_max=400.0)
 BEVERLOO_CSV = ["seed", "D", "t", "discharged_mass", "fill_height", "total_mass", "rho_b", "n", "width"]
 
