@@ -104,14 +104,14 @@ def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, diameter, escaped, ne, buf, 
                 w0 = vf[c] - u0
                 w1 = vf[c + np.uint64(1)] - u1
                 w2 = vf[c + np.uint64(2)] - u2 if D == 3 else 0.0
-                bf[k] = d0
-                bf[S + k] = d1
+                bf[np.uint64(_D0) * S + k] = d0
+                bf[np.uint64(_D1) * S + k] = d1
                 if D == 3:
-                    bf[np.uint64(2) * S + k] = d2
-                bf[np.uint64(3) * S + k] = w0 * d0 + w1 * d1 + w2 * d2
+                    bf[np.uint64(_D2) * S + k] = d2
+                bf[np.uint64(_DOT) * S + k] = w0 * d0 + w1 * d1 + w2 * d2
                 # a pair with an escaped ball is not a listed one (the caller meets it): never
                 # touching, marked by a negative rest length (r_i + r_j > 0 for any pair)
-                bf[np.uint64(4) * S + k] = l0 if (ne == 0 or escaped[j] == 0) else -1.0
+                bf[np.uint64(_REST) * S + k] = l0 if (ne == 0 or escaped[j] == 0) else -1.0
                 k += np.uint64(1)
         i += 1
     return i, np.int64(k)
@@ -129,14 +129,14 @@ def _scatter_pairs(bf, stride, k, af, nbf, row, count, D):
     for m in range(count):
         j = np.uint64(nbf[row + np.uint64(m)])
         c = j * np.uint64(D)
-        e0 = bf[k]
-        e1 = bf[S + k]
+        e0 = bf[np.uint64(_D0) * S + k]
+        e1 = bf[np.uint64(_D1) * S + k]
         f0 += e0
         f1 += e1
         af[c] -= e0
         af[c + np.uint64(1)] -= e1
         if D == 3:
-            e2 = bf[np.uint64(2) * S + k]
+            e2 = bf[np.uint64(_D2) * S + k]
             f2 += e2
             af[c + np.uint64(2)] -= e2
         k += np.uint64(1)
