@@ -144,13 +144,13 @@ def _scatter_pairs(bf, stride, k, af, nbf, row, count, D):
 
 
 @njit(inline="always")
-def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, fixed, coincident, D):
+def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, coincident, D):
     """Apply the block's forces (rows _D0 to _D2 after the law) of balls [i0, i1), ball after
     ball in the order gathered: j's share subtracted from a_j, i's summed in registers and added
     after its pairs; coincident centres through pair_contact (before i's sum, as if in the loop: each listed j
-    appears once); then the terrain of a ball listed near it or escaped. ``fixed``: the buffer is
-    PAIR_BLOCK long (its rows' stride a constant)."""
+    appears once); then the terrain of a ball listed near it or escaped."""
     bf = buf.reshape(buf.size)
+    fixed = buf.shape[1] == PAIR_BLOCK  # the usual buffer: its rows' stride a constant
     k = np.uint64(0)
     for i in range(i0, i1):
         escaped_i = _skips(i, escaped, ne)
@@ -228,7 +228,5 @@ def listed_forces(i0, i1, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, n
                 start, i1, xf, vf, nbf, width, cnt, sm.radii, sm.diameter, escaped, ne, buf, buf.shape[1], D
             )  # fmt: skip
         coincident = _block_law(pairs, buf, sm.ks, sm.kd, cap, D)
-        _scatter(
-            start, end, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, fixed, coincident, D
-        )  # fmt: skip
+        _scatter(start, end, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, g, escaped, ne, buf, coincident, D)
         start = end
