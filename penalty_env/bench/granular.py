@@ -506,16 +506,7 @@ def repose_fill(
         raise ValueError(f"base must be 'flat' or (3D) 'grains', got {base!r}")
     half = 0.5 * h0 + 2.0
     wall_t = 1.0
-    up = np.zeros(dim)
-    if dim == 2:
-        tube = [
-            Box([-R - wall_t, half], [wall_t, half], velocity=up),
-            Box([R + wall_t, half], [wall_t, half], velocity=up),
-        ]
-    else:
-        c = [0.0, 0.0, z0 + half]
-        tube = [Difference(Cylinder(c, R + wall_t, half), Cylinder(c, R, half + 1.0), velocity=up)]
-    terrain = [Plane(np.zeros(dim), np.eye(dim)[-1])] + tube
+    terrain = repose_terrain(dim, R, half, wall_t, z0)
     contact = Contact.for_grains(float(masses.mean()), float(radii.mean()), fill_h, steps_per_contact)
     # rotation and Cundall-Strack springs even without friction (where they change nothing), so that
     # every pile of a dimension compiles to the same kernels
@@ -526,13 +517,34 @@ def repose_fill(
     return ReposeFill(w, n, mu, mu_r, held, z0, R, half, wall_t, contact)
 
 
+def repose_terrain(dim: int, R: float, half: float, wall_t: float, z0: float) -> list:
+    """The floor (a plane at 0) and the tube at rest, kinematic: 2D two walls ``wall_t`` thick at
+    +-R, 3D a cylindrical shell (``Difference`` of two cylinders) of inner radius R; both reaching
+    from ``z0`` to ``z0 + 2 half`` (2D: from 0)."""
+    up = np.zeros(dim)
+    if dim == 2:
+        tube = [
+            Box([-R - wall_t, half], [wall_t, half], velocity=up),
+            Box([R + wall_t, half], [wall_t, half], velocity=up),
+        ]
+    else:
+        c = [0.0, 0.0, z0 + half]
+        tube = [Difference(Cylinder(c, R + wall_t, half), Cylinder(c, R, half + 1.0), velocity=up)]
+    return [Plane(np.zeros(dim), np.eye(dim)[-1])] + tube
+
+
+def pile_top(w: World, n: int) -> float:
+    """The highest grain top of the pile's ``n`` grains (the first n of ``w``)."""
+    return float((w.positions.reshape(-1, w.dim)[:n, -1] + w.radii[:n]).max())
+
+
 def repose_lift(fill: ReposeFill, lift_speed: float, settle_time: float, tick: float, base: str) -> Repose:
     """``repose``'s second part: lift the tube at ``lift_speed`` until its lower rim is above the
     highest grain, let the pile settle, and measure it."""
     w, n, held, z0 = fill.world, fill.n, fill.held, fill.z0
     dim, radii = w.dim, w.radii
     free = slice(0, n)
-    top = float((w.positions.reshape(-1, dim)[free, -1] + radii[free]).max())
+    top = pile_top(w, n)
     vel = np.zeros(dim)
     vel[-1] = lift_speed
     shapes = range(1, len(w.terrain))  # the tube (the floor is shape 0)
@@ -1684,7 +1696,7 @@ def lammps_pile_fill(seed: int, mu: float, mu_r: float) -> PileState:
     cfg = REPOSE_3D_SETUP
     f = repose_fill(3, mu, mu_r, int(cfg["n"]), float(cfg["tube_radius"]), seed, base=str(cfg["base"]))
     w, n = f.world, f.n
-    top = float((w.positions[:n, 2] + w.radii[:n]).max())
+    top = pile_top(w, n)
     lift = float(cfg["lift_speed"])
     return PileState(
         seed,
@@ -1714,10 +1726,7 @@ def ours_pile(s: PileState, settle_time: float) -> Repose:
     """Lift and measure ``s`` in a fresh World, with ``repose_lift``: ``repose``'s lift, but without
     the fill's contact history (as LAMMPS starts), so another realisation of ``repose``'s pile."""
     tick = time.time()
-    c = [0.0, 0.0, s.z0 + s.half]
-    up = np.zeros(3)
-    tube = Difference(Cylinder(c, s.R + s.wall_t, s.half), Cylinder(c, s.R, s.half + 1.0), velocity=up)
-    terrain = [Plane(np.zeros(3), np.eye(3)[2]), tube]
+    terrain = repose_terrain(3, s.R, s.half, s.wall_t, s.z0)
     spin = dict(rotation=True, tangential="history", mu=s.mu, mu_r=s.mu_r, kt=s.kt, kd_t=s.kd_t, kr=s.kr)
     common = dict(terrain=terrain, ks=s.contact.ks, kd=s.contact.kd, broadphase="grid", **spin)
     w = World(s.x, s.radii, s.masses, s.v, dt=s.dt, gravity=(0.0, 0.0, -G), **common)
