@@ -1,22 +1,28 @@
-"""Numba configuration shared by every kernel.
+"""Numba configuration shared by every kernel: compile options, the cache, the threading layer.
 
-Kernels are compiled with ``cache=True`` so a second process starts in well under a second.
-Numba writes its cache next to the source (``__pycache__``) when that is writable. When the
-package is installed read-only, we point numba's cache at the user's own cache folder
-(``~/.cache/penalty_env/numba``), or failing that at a private temporary folder (``mkdtemp``: never
-a predictable shared path, since numba loads cache files as pickles); a user's
-``NUMBA_CACHE_DIR`` always wins. If even that fails we compile without a cache: slower to start,
-never a crash.
+Compile options. Kernels are compiled with numpy's error model and without Numba's
+reference-counting runtime (``_nrt=False``): they never allocate, and with NRT every call that is
+not inlined increfs and decrefs each array argument atomically (measured: ~100 ns per pair check,
+and contention between threads). ``fastmath`` is banned: it lets LLVM assume no NaN or inf, which
+would delete the ``np.isfinite`` guards that report a blown-up simulation.
 
-Kernels are compiled without Numba's reference-counting runtime (``_nrt=False``): they never
-allocate, and with NRT every non-inlined call increfs and decrefs each array argument atomically,
-which cost ~100 ns per pair check (measured) and contends between threads.
+Compile time is user time (docs/architecture.md, "Compile time"). Numba's front end (type
+inference, lowering) costs more than linearly in a function's size, and ``inline="always"``
+copies a callee's IR into every call site and types it again. So kernels are small plain
+functions called by value, which LLVM inlines into their callers anyway; arguments are arrays
+and scalars of fixed types (shapes and flags are data, not types), so each function compiles
+once per dimension.
 
-``fastmath`` is deliberately not used: it lets LLVM assume no NaN/inf, which would delete the
-``np.isfinite`` guards the kernels rely on to report a blown-up simulation.
-
-Stale caches: an index written by an older version of the package that names a class which no
-longer exists is treated as a cache miss (recompiled), not an error (``_tolerate_stale_cache_indexes``).
+The cache (:class:`PackageCacheLocator`). Kernels are cached on disk (``cache=True``). Numba keys a
+cached kernel on its own source file only, so editing one kernel module would leave code compiled
+from it in the caches of the kernels of other modules; here every kernel's cache entry is keyed on
+a hash of the whole package's kernel sources (``physics/`` and ``envs/``, and this file), so an
+edit anywhere recompiles everything and nothing stale can run. The cache lives next to the
+sources (``__pycache__``) when that is writable, else in the user's cache folder
+(``~/.cache/penalty_env/numba``), else in a private temporary folder (``mkdtemp``: never a
+predictable shared path, since Numba loads cache files as pickles); a user's ``NUMBA_CACHE_DIR``
+always wins. An index written by an older version of the package that names a class that no longer
+exists is a cache miss, not an error (``_tolerate_stale_cache_indexes``).
 
 Threading layer: the large-world kernels run in parallel through Numba's threading layer. Its
 default on Linux is GNU OpenMP where it is installed, and GNU OpenMP does not survive ``fork``: a
@@ -30,49 +36,125 @@ layer: every parallel kernel splits its work by a fixed rule, not by the schedul
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 import pickle
+import sys
 import tempfile
+import threading
+import time
 import warnings
 from typing import Any
 
 import numba
+from numba.core import caching
+from numba.core import codegen as _codegen
 from numba.core import config as _numba_config
+from numba.core import event as _numba_event
+from numba.extending import overload as _overload
 
-__all__ = ["njit", "prange", "entry_point"]
+__all__ = ["njit", "overload_kernel", "prange", "entry_point", "source_hash", "PackageCacheLocator", "compile_notice"]
 
 prange = numba.prange
+
+_PACKAGE = os.path.dirname(os.path.abspath(__file__))
+# the folders whose sources kernels compile from (with this file)
+_KERNEL_FOLDERS = ("physics", "envs")
+
+
+def _kernel_sources() -> list[str]:
+    files = [os.path.abspath(__file__)]
+    for folder in _KERNEL_FOLDERS:
+        for root, dirs, names in os.walk(os.path.join(_PACKAGE, folder)):
+            dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+            files += [os.path.join(root, n) for n in sorted(names) if n.endswith(".py")]
+    return files
+
+
+_HASH: list[str] = []
+
+
+def source_hash() -> str:
+    """A hash of every source a kernel of the package can compile from (computed once per process)."""
+    if not _HASH:
+        digest = hashlib.sha256()
+        for path in _kernel_sources():
+            digest.update(os.path.relpath(path, _PACKAGE).encode())
+            with open(path, "rb") as f:
+                digest.update(f.read())
+        _HASH.append(digest.hexdigest()[:20])
+    return _HASH[0]
 
 
 def _writable(path: str) -> bool:
     try:
         os.makedirs(path, exist_ok=True)
-        probe = tempfile.NamedTemporaryFile(dir=path, prefix=".probe", delete=True)
-        probe.close()
+        tempfile.TemporaryFile(dir=path).close()
         return True
     except OSError:
         return False
 
 
-def _choose_cache_dir() -> None:
-    """Use the package tree if writable; else NUMBA_CACHE_DIR as given; else a temp folder."""
-    if _numba_config.CACHE_DIR:  # the user chose one (NUMBA_CACHE_DIR); respect it
-        return
-    package = os.path.dirname(os.path.abspath(__file__))
-    # the kernels live in these subpackages; each caches into its own __pycache__
-    if all(_writable(os.path.join(package, sub, "__pycache__")) for sub in ("physics", "envs")):
-        return
-    user = os.path.join(os.path.expanduser("~"), ".cache", "penalty_env", "numba")
+_FALLBACK_DIR: list[str] = []
+
+
+def _cache_root(py_file: str) -> str:
+    """Where the cache of a kernel defined in ``py_file`` goes (see the module docstring)."""
+    subpath = os.path.relpath(os.path.dirname(py_file), _PACKAGE).replace(os.sep, "_")
+    if _numba_config.CACHE_DIR:  # the user chose (NUMBA_CACHE_DIR)
+        return os.path.join(_numba_config.CACHE_DIR, "penalty_env", subpath)
+    here = os.path.join(os.path.dirname(py_file), "__pycache__")
+    if _writable(here):
+        return here
+    user = os.path.join(os.path.expanduser("~"), ".cache", "penalty_env", "numba", subpath)
     if _writable(user):
-        _numba_config.CACHE_DIR = user
-        return
-    try:
-        _numba_config.CACHE_DIR = tempfile.mkdtemp(prefix="penalty_env-numba-")
-    except OSError:
-        pass  # no writable folder at all: numba raises at decoration and njit() compiles uncached
+        return user
+    if not _FALLBACK_DIR:
+        _FALLBACK_DIR.append(tempfile.mkdtemp(prefix="penalty_env-numba-"))
+    return os.path.join(_FALLBACK_DIR[0], subpath)
 
 
-_choose_cache_dir()
+class PackageCacheLocator(caching._CacheLocator):
+    """Numba cache locator for this package's kernels: the entry's freshness stamp is the hash of
+    every kernel source of the package (:func:`source_hash`), not the one file's; the folder is
+    chosen as the module docstring says. Functions of other packages are left to Numba's own
+    locators (``from_function`` returns None for them)."""
+
+    def __init__(self, py_func: Any, py_file: str) -> None:
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+        self._cache_path = _cache_root(py_file)
+
+    def get_cache_path(self) -> str:
+        return self._cache_path
+
+    def get_source_stamp(self) -> Any:
+        return ("penalty_env", source_hash())
+
+    def get_disambiguator(self) -> str:
+        return str(self._lineno)
+
+    @classmethod
+    def from_function(cls, py_func: Any, py_file: str) -> PackageCacheLocator | None:
+        path = os.path.abspath(py_file)
+        if not path.startswith(_PACKAGE + os.sep) or not os.path.exists(path):
+            return None
+        self = cls(py_func, path)
+        try:
+            self.ensure_cache_path()
+        except OSError:
+            return None
+        return self
+
+
+def _install_locator() -> None:
+    classes = caching.CacheImpl._locator_classes
+    if PackageCacheLocator.__name__ not in [c.__name__ for c in classes]:
+        classes.insert(0, PackageCacheLocator)
+
+
+_install_locator()
 
 
 def _choose_threading_layer() -> None:
@@ -88,12 +170,9 @@ _choose_threading_layer()
 def _tolerate_stale_cache_indexes() -> None:
     """Treat a Numba cache index that cannot be unpickled as empty (a cache miss), instead of
     crashing the first call. An index pickles the argument types of every compiled signature; one
-    written by an older version of this package may name a class that no longer exists (the cache
-    survives a ``pip install --upgrade``: pip removes only the files it installed), and Numba
+    written by an older version of this package may name a class that no longer exists, and Numba
     unpickles the index before it checks that the source is unchanged. Numba then recompiles and
     overwrites the index, as for any stale cache. Applies to every Numba cache of the process."""
-    from numba.core import caching
-
     original = caching.IndexDataCacheFile._load_index
     if getattr(original, "_penalty_env_tolerant", False):
         return
@@ -111,18 +190,111 @@ def _tolerate_stale_cache_indexes() -> None:
 _tolerate_stale_cache_indexes()
 
 
-def njit(*args, **kwargs):
-    """``numba.njit`` with ``cache=True`` and numpy's error model, falling back to no cache.
+class _CompileDepth(_numba_event.Listener):
+    """How deep the compile in progress is nested (1: a kernel called from Python; 2 and more: the
+    kernels it calls, compiled while it is typed). Numba compiles under one global lock."""
 
-    Use as ``@njit`` or ``@njit(parallel=True)``.
+    depth = 0
+
+    def on_start(self, event: Any) -> None:
+        _CompileDepth.depth += 1
+
+    def on_end(self, event: Any) -> None:
+        _CompileDepth.depth -= 1
+
+
+_KERNELS: set[str] = set()  # the qualified names of this package's kernels
+
+
+def _call_tree(root: Any) -> list:
+    """Every library ``root`` links, each once, callers before callees (reversed post-order)."""
+    order: list = []
+    seen: set[int] = set()
+    stack = [(root, iter(root._linking_libraries))]
+    while stack:
+        _, children = stack[-1]
+        child = next(children, None)
+        if child is None:
+            order.append(stack.pop()[0])
+        elif id(child) not in seen:
+            seen.add(id(child))
+            stack.append((child, iter(child._linking_libraries)))
+    order.pop()  # the root itself
+    return order[::-1]
+
+
+def _optimize_once() -> None:
+    """Link and optimise a kernel's call tree once, in the kernel called from Python (see the
+    module docstring).
+
+    Numba links every callee's LLVM module into its caller's, then optimises and generates machine
+    code for the linked whole, at every level of the call tree: a kernel ten calls deep went
+    through LLVM ten times, and most of a step's compile time went there (measured: 60%). Here a
+    kernel of this package compiled inside another kernel's compile (a callee, depth 2 and more)
+    keeps its own code only, unlinked and unoptimised as a module (its calls resolve to the callees'
+    own compiled code if it is ever called directly), and a kernel called from Python links its
+    whole call tree, once, and optimises it once. Floating-point results do not depend on this (no
+    fast-math, no contraction). Callees are not cached on disk (their code is not complete); the
+    entry kernels are.
     """
-    kwargs.setdefault("cache", True)
+    library_class = getattr(_codegen, "CPUCodeLibrary", None)
+    original = getattr(library_class, "finalize", None)
+    if original is None or getattr(original, "_penalty_env", False):
+        return  # a Numba without this hook: compile as Numba does
+
+    def finalize(self):
+        if self.name not in _KERNELS:
+            return original(self)
+        self._codegen._check_llvm_bugs()
+        self._raise_if_finalized()
+        if _CompileDepth.depth >= 2:  # a callee: its own code (and Numba's helpers); its entry links it
+            for library in self._linking_libraries:
+                if library.name not in _KERNELS:
+                    self._reload_init.update(library._reload_init)
+                    self._final_module.link_in(library._get_module_for_linking(), preserve=True)
+            self._finalize_final_module()
+            return None
+        for library in _call_tree(self):  # callers before callees: LLVM links a callee's
+            # (linkonce) code only where something linked already calls it
+            self._reload_init.update(library._reload_init)
+            self._final_module.link_in(library._get_module_for_linking(), preserve=True)
+        self._optimize_final_module()
+        self._final_module.verify()
+        self._finalize_final_module()
+        return None
+
+    finalize._penalty_env = True  # type: ignore[attr-defined]
+    library_class.finalize = finalize
+    _numba_event.register("numba:compile", _CompileDepth())
+
+
+_optimize_once()
+
+
+def njit(*args, entry: bool = False, **kwargs):
+    """``numba.njit`` for this package's kernels. Use as ``@njit``, ``@njit(entry=True)`` or
+    ``@njit(entry=True, parallel=True)``.
+
+    A kernel called from Python is an *entry* (``entry=True``): it is cached on disk (falling back
+    to no cache where no folder is writable) and its call tree is linked and optimised into it. Every
+    other kernel is a *callee*, compiled only into the entries that call it: without the wrappers
+    that let Python call it (each costs as much to compile as a small kernel) and without a cache
+    entry of its own. Numpy's error model, no NRT (see the module docstring); ``fastmath`` and
+    ``inline="always"`` are refused.
+    """
     kwargs.setdefault("error_model", "numpy")
     kwargs.setdefault("_nrt", False)  # kernels never allocate: see the module docstring
+    if entry:
+        kwargs.setdefault("cache", True)
+    else:
+        kwargs.update(cache=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
     if kwargs.get("fastmath"):
         raise ValueError("fastmath is banned in penalty_env kernels: it removes NaN/inf checks")
+    if kwargs.get("inline", "never") != "never":
+        raise ValueError("inline='always' is not used in penalty_env kernels: it multiplies compile time")
 
     def decorate(func):
+        _KERNELS.add(func.__qualname__)
         try:
             return numba.njit(**kwargs)(func)
         except RuntimeError as exc:  # "cannot cache function ...: no locator available"
@@ -138,6 +310,91 @@ def njit(*args, **kwargs):
     if len(args) == 1 and callable(args[0]):
         return decorate(args[0])
     return decorate
+
+
+def overload_kernel(func: Any) -> Any:
+    """``numba.extending.overload(func)`` for this package: the implementation it returns is a
+    callee kernel (see :func:`njit`): no wrappers, no cache entry of its own."""
+
+    def decorate(typer: Any) -> Any:
+        @functools.wraps(typer)
+        def registering(*args: Any, **kwargs: Any) -> Any:
+            impl = typer(*args, **kwargs)
+            if impl is not None:
+                _KERNELS.add(impl.__qualname__)
+            return impl
+
+        options = {"error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+        return _overload(func, jit_options=options)(registering)
+
+    return decorate
+
+
+class _CompileWatch(_numba_event.Listener):
+    """Counts the seconds Numba spends compiling (outermost compiles only) on this thread."""
+
+    def __init__(self) -> None:
+        self.depth = 0
+        self.start = 0.0
+        self.seconds = 0.0
+
+    def on_start(self, event: Any) -> None:
+        if self.depth == 0:
+            self.start = time.perf_counter()
+        self.depth += 1
+
+    def on_end(self, event: Any) -> None:
+        self.depth -= 1
+        if self.depth == 0:
+            self.seconds += time.perf_counter() - self.start
+
+
+_NOTICE_LOCK = threading.Lock()
+_NOTICED: set[str] = set()
+
+
+class compile_notice:
+    """Context manager around a first call that may compile: if Numba compiles for more than
+    ``after`` seconds inside it, say so once per ``what`` and process on stderr (a newcomer waiting
+    silently thinks the program hung), and how long it took. Silent when the cache was warm."""
+
+    def __init__(self, what: str, after: float = 1.0) -> None:
+        self.what = what
+        self.after = after
+        self._watch = _CompileWatch()
+        self._timer: threading.Timer | None = None
+        self._said = False
+
+    def _say(self) -> None:
+        with _NOTICE_LOCK:
+            if self.what in _NOTICED:
+                return
+            _NOTICED.add(self.what)
+        self._said = True
+        print(
+            f"penalty_env: compiling the {self.what} kernels (once; cached for later processes)...",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    def __enter__(self) -> compile_notice:
+        _numba_event.register("numba:compile", self._watch)
+        if self.what not in _NOTICED:
+            self._timer = threading.Timer(self.after, self._check)
+            self._timer.daemon = True
+            self._timer.start()
+        return self
+
+    def _check(self) -> None:
+        if self._watch.depth > 0 or self._watch.seconds > 0.0:
+            self._say()
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+        _numba_event.unregister("numba:compile", self._watch)
+        if self._said:
+            print(f"penalty_env: compiled in {self._watch.seconds:.1f} s", file=sys.stderr, flush=True)
 
 
 def entry_point(fn: Any, args: tuple) -> Any:

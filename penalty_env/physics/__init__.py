@@ -3,30 +3,26 @@
 Knows nothing of Gymnasium. ``World`` steps B worlds of n balls; ``theory`` holds the closed forms
 the tests check against; ``configure`` turns tolerances into contact parameters and a time step.
 
-Layout (one module per concern):
+Layout (each folder one concern; an import never points up this table):
 
-========================  ==========================================================================
-``world``                 the public ``World``: validation, the stability guard, state and stepping
-``model``                 ``Model`` (the static scene, every contact parameter) and ``State``
-``shapes``                terrain shapes (signed distance functions); ``implicit``: shape-shape overlap
-``geometry``              the shapes' kernel side: phi per kind, CSG trees, poses, the terrain loop
-``contact``               the contact laws and their shared helpers (the reference implementation)
-``contact_lanes``         the laws' SIMD-across-worlds twin; ``lanes``: that stepping path
-``contact_listed``        the pair law's neighbour-list twin; ``neighbour_list``: that path
-``broadphase``            all pairs and the uniform grid
-``integrators``           one step per method and the driver that runs any of them
-``rotation``              spin: the rotating contact law, the tangential models, rolling resistance
-``events``                event-located stepping (contact switches located and crossed)
-``diagnostics``           energy and penetration
-``runner``                the thread pool, the work threshold, the choice of stepping path
+=======================  ===========================================================================
+``geometry/``            terrain shapes as signed distance functions: the Python shapes, the shape
+                         table the kernels read, the kernels that evaluate it
+``contact/``             the contact law (``law``, once) and where it is evaluated: a pair, the
+                         terrain, spinning balls, SIMD lanes, neighbour-list blocks
+``broadphase/``          which pairs can touch: the grid, the pair-visiting service, Verlet lists
+``stepping/``            the integrators, the stepping paths (scalar, lanes, events, large worlds)
+                         and the runner that owns the threads
+``model``                the kernels' data: ``Model``, ``State``, ``Control``, ``Spin``
+``world``                the public ``World`` (with ``world_checks``, ``world_state``,
+                         ``world_terrain``, and the stability ``guard``)
+``diagnostics``          energy and penetration
 ``theory``, ``configure`` closed forms and stability limits; tolerance-driven configuration
-========================  ==========================================================================
+=======================  ===========================================================================
 """
 
 from . import theory
-from .implicit import ImplicitOverlap, implicit_overlap
-from .model import Model, State
-from .shapes import (
+from .geometry import (
     SDF,
     Bowl,
     Box,
@@ -44,14 +40,18 @@ from .shapes import (
     Union,
     rotation_matrix,
 )
-from .world import EnergyDriftWarning, StartOverlapWarning, World
+from .geometry.implicit import ImplicitOverlap, implicit_overlap
+from .model import Control, Model, State
+from .world import EnergyDriftWarning, Motor, StartOverlapWarning, World
 
 __all__ = [
     "World",
+    "Motor",
     "EnergyDriftWarning",
     "StartOverlapWarning",
     "Model",
     "State",
+    "Control",
     "Shape",
     "Sphere",
     "Bowl",

@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import _validate as V
+from ... import _validate as V
 from .shapes import Shape
 
 __all__ = ["implicit_overlap", "ImplicitOverlap"]

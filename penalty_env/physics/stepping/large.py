@@ -1,40 +1,35 @@
 """Large worlds: a Verlet neighbour list per world, and the force loop parallel over balls.
 
 A world of ``LARGE_WORLD_MIN_BALLS`` balls or more, with the grid and symplectic or explicit Euler,
-is stepped here, through its own list (:func:`run_large`; its docstring gives the
-algorithm: a list of every pair within r_i + r_j + skin, balls that "escape" it, storage sorted by
-grid cell, slabs of cells whose writes never meet, so the result depends neither on the thread
-count nor on how the steps are split into calls). The pair law is the list twin
-:func:`.contact_listed.pair_contact_listed`.
+is stepped here, through its own list (:mod:`..broadphase.verlet`; :func:`run_large`'s docstring
+gives the algorithm: escaped balls, slabs of cells whose writes never meet, so the result depends
+neither on the thread count nor on how the steps are split into calls). The pair law is the
+list's twin, :func:`..contact.listed.listed_forces`.
 
 One algorithm, two compilations: :func:`run_large` runs its loops parallel over the balls (a single
 large world), :func:`run_large_serial` (the same source without parallel regions, the GIL released)
 runs them on the calling thread: the runner steps a batch so, a share of its worlds per thread, and
 a world under ``SERIAL_MAX_BALLS`` alone. The result is the same bit for bit.
-
-:class:`NeighbourLists` holds one list per world of a batch, on the Python side.
 """
 
 from __future__ import annotations
 
-from collections import namedtuple
 from types import FunctionType
 from typing import Any
 
 import numpy as np
-from numba import types
-from numba.extending import overload
 
-from .._jit import entry_point, njit, prange
-from .broadphase import build_grid, neighbour_rows, new_grid
-from .contact import FORCE, general_terrain_row, pair_contact, shape_dist2
-from .contact_listed import PAIR_BLOCK, PAIR_ROWS, listed_forces
-from .geometry import advance_geometry, geometry_clearance, model_geometry_type, world_slice
-from .integrators import STATUS_OK, final_status
-from .model import SlimModel
+from ..._jit import entry_point, njit, prange
+from ..broadphase.grid import build_grid
+from ..broadphase.partners import cell_partners
+from ..broadphase.verlet import SlimModel, build_list, new_large_world, permute_rows
+from ..contact.listed import PAIR_BLOCK, PAIR_ROWS, listed_forces
+from ..contact.pair import pair_force
+from ..contact.terrain import has_summed_shapes, summed_terrain
+from ..geometry.evaluate import advance_shapes, terrain_clearance
+from .common import STATUS_OK, final_status
 
 __all__ = [
-    "LargeWorld",
     "NeighbourLists",
     "run_large",
     "run_large_serial",
@@ -62,162 +57,9 @@ SERIAL_MAX_BALLS = 2_000
 # the two integrators this path runs (``run_large``'s ``integ``)
 EXPLICIT_EULER, SYMPLECTIC_EULER = 0, 1
 
-# One large world's private state (``run_large``): its balls in grid-cell order in memory, its own
-# grid, and a Verlet neighbour list (every pair within r_i + r_j + skin at the last build).
-LargeWorld = namedtuple(
-    "LargeWorld",
-    [
-        "x",
-        "v",
-        "a",
-        "ext",  # (1, n, D) state, accelerations and external force in storage order
-        "grid",  # Grid (one row) of the storage at the last build
-        "perm",  # (n,) ball index of each storage slot
-        "order",
-        "itmp",  # (n,) int scratch
-        "tmp",  # (n, max(D, 2)) float scratch
-        "nbr",  # (n, cap) int32 storage slots of each ball's listed neighbours, in grid order
-        "count",  # (n,) int32 listed neighbours per ball
-        "near",  # (n,) int8: bit 1 if the ball was within a skin of a static sphere or bowl at the build, bit 2 of a general shape
-        "xref",  # (n, D) positions at the last build
-        "escaped",  # (n,) int8: 1 once the slot has moved skin / 2 from xref
-        "escapes",  # (max_escapes,) the escaped slots, in the order they escaped
-        "moved",  # (threads,) per thread: how many slots escaped in the last step (-1: not finite)
-        "pairs",  # (threads, PAIR_ROWS, max(PAIR_BLOCK, cap)) per thread: the force pass's block of pairs
-        "skin",  # list reach beyond contact
-        "state",  # (4,) int64: [list valid, largest count at the last build, builds so far, escaped]
-    ],
-)
 
-
-@njit(parallel=True)
-def _permute_rows(src, order, tmp):
-    """src[0, i] = src[0, order[i]] for every row i (through tmp, (n, D))."""
-    n = order.shape[0]
-    for i in prange(n):
-        for k in range(src.shape[2]):
-            tmp[i, k] = src[0, order[i], k]
-    for i in prange(n):
-        for k in range(src.shape[2]):
-            src[0, i, k] = tmp[i, k]
-
-
-@njit(inline="always")
-def _list_neighbours(i, grid, xs, sm, nbr, skin, D):
-    """Write ball i's neighbours j > i within r_i + r_j + skin to ``nbr[i]`` in the grid's order (as
-    many as fit below its last column, which takes the rejects); return how many there are: each
-    pair is listed once, by its lower slot. The storage must be in the grid's cell order (slot =
-    item), so a listed j lies in i's layer of cells along the last axis or in the next one.
-    Branch-free: every candidate is written and the count advances only for a neighbour."""
-    last = nbr.shape[1] - 1
-    x0, x1, y0, y1, z0, z1, nx, ny = neighbour_rows(0, i, xs, grid, D)
-    count = 0
-    reach = sm.radii[i] + skin
-    p0 = xs[0, i, 0]
-    p1 = xs[0, i, 1]
-    p2 = xs[0, i, 2] if D == 3 else 0.0
-    for qz in range(z0, z1):
-        for qy in range(y0, y1):
-            row = (qz * ny + qy) * nx
-            # storage is in cell order: the slots after i are the later cells (rows before i's end
-            # before it, and i's own row resumes after it), so only they are scanned
-            for j in range(max(grid.start[0, row + x0], i + 1), grid.start[0, row + x1]):
-                cut = reach + sm.radii[j]
-                d0 = xs[0, j, 0] - p0
-                d1 = xs[0, j, 1] - p1
-                d2 = xs[0, j, 2] - p2 if D == 3 else 0.0
-                near = d0 * d0 + d1 * d1 + d2 * d2 < cut * cut
-                nbr[i, min(count, last)] = j
-                count += 1 if near else 0
-    return count
-
-
-@njit(inline="always")
-def _near_terrain(i, xs, sm, reach, D):
-    """1 unless ball i's surface is at least ``reach`` clear of every terrain shape (phi(c_i) - r_i
-    >= reach; a position that is not finite counts as near)."""
-    r = sm.radii[i]
-    for s in range(sm.shape_kind.shape[0]):
-        sign, dist2 = shape_dist2(0, i, xs, sm, s, D)
-        if not sign * (np.sqrt(dist2) - sm.shape_radius[s]) - r >= reach:
-            return 1
-    return 0
-
-
-# General shapes (:mod:`.geometry`) cannot enter the parallel passes: Numba's parallel loops take a
-# tuple argument only one level deep, and a Geometry is a tuple of tuples. So ``run_large`` keeps
-# them out of its parallel passes (``sm`` there is the Model without them) and handles them in the
-# two serial passes below, with ``full`` (the Model with them). Without general shapes both passes
-# compile to nothing.
-
-
-def _general_near(full, lw, xs, g):
-    """Flag (bit 2 of ``near``) every ball within a skin of a general shape at the build (jitted code only)."""
-    raise NotImplementedError
-
-
-@overload(_general_near)
-def _general_near_impl(full, lw, xs, g):
-    if isinstance(model_geometry_type(full), types.NoneType):
-        return lambda full, lw, xs, g: None
-
-    def impl(full, lw, xs, g):
-        D = len(g)
-        near = lw.near
-        for i in range(xs.shape[1]):
-            p2 = xs[0, i, 2] if D == 3 else 0.0
-            # phi is 1-Lipschitz for exact shapes and CSG trees; moving shapes, height fields and
-            # user SDFs give -inf: their balls are tested at every step
-            if not geometry_clearance(full, 0, xs[0, i, 0], xs[0, i, 1], p2, D) - full.radii[i] >= lw.skin:
-                near[i] |= 2
-
-    return impl
-
-
-def _general_forces(full, xs, vs, a, friction, g, near, escaped, ne):
-    """The general shapes' forces on the balls flagged near them and on the escaped ones (serial;
-    jitted code only)."""
-    raise NotImplementedError
-
-
-@overload(_general_forces)
-def _general_forces_impl(full, xs, vs, a, friction, g, near, escaped, ne):
-    if isinstance(model_geometry_type(full), types.NoneType):
-        return lambda full, xs, vs, a, friction, g, near, escaped, ne: None
-
-    def impl(full, xs, vs, a, friction, g, near, escaped, ne):
-        for i in range(xs.shape[1]):
-            if (near[i] & 2) != 0 or (ne > 0 and escaped[i] != 0):
-                general_terrain_row(FORCE, 0, i, xs, vs, a, 0.0, full, friction, g, 0.0)
-
-    return impl
-
-
-@njit(parallel=True)
-def _build_list(grid, xs, sm, lw, g):
-    """Every pair within r_i + r_j + skin, listed once by its lower slot in the grid's fixed order
-    (the list, and so the force sums, do not depend on the thread count), and which balls are
-    within a skin of the terrain. Returns the largest count; a count at the list's capacity leaves
-    the list invalid (the caller grows it and retries)."""
-    D = len(g)
-    n = xs.shape[1]
-    nbr, cnt, near, xref = lw.nbr, lw.count, lw.near, lw.xref
-    skin = lw.skin
-    for i in prange(n):
-        cnt[i] = _list_neighbours(i, grid, xs, sm, nbr, skin, D)
-        # a ball that has not escaped is within skin / 2 of xref, and phi is 1-Lipschitz: a
-        # clearance of a skin at the build means no terrain contact until it escapes
-        near[i] = _near_terrain(i, xs, sm, skin, D)
-        for k in range(D):
-            xref[i, k] = xs[0, i, k]
-    most = 0
-    for i in range(n):
-        most = max(most, cnt[i])
-    return most
-
-
-@njit(inline="always")
-def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g):
+@njit
+def _advance(integ, dt, i0, i1, xs, vs, a, es, has_ext, sm, xref, escaped, half2, g):
     """Symplectic / explicit Euler update of storage slots i0..i1-1 (leaving their forces zeroed for
     the next step); marks each slot that is now skin / 2 or more from where the list was built.
     Returns how many it marked, or -1 (after updating every slot) if a displacement is not finite:
@@ -237,7 +79,7 @@ def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g)
         base = np.uint64(i) * np.uint64(D)
         for k in range(D):
             e = base + np.uint64(k)
-            ak = (af[e] + (ef[e] if ext is not None else 0.0)) * im + g[k]
+            ak = (af[e] + (ef[e] if has_ext else 0.0)) * im + g[k]
             af[e] = 0.0  # ready for the next step's forces
             if integ == SYMPLECTIC_EULER:
                 vf[e] += dt * ak
@@ -256,38 +98,66 @@ def _advance(integ, dt, i0, i1, xs, vs, a, es, ext, sm, xref, escaped, half2, g)
 
 
 @njit
-def _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne):
+def _escaped_contacts(xs, vs, a, grid, sm, escaped, escapes, ne, cand, D):
     """Pair forces of the escaped balls (serial, each pair once, applied to both balls; the list
     pass skipped them). An escaped ball meets the others through the grid of the last build: every
     ball that has not escaped is within skin / 2 of where that grid put it, and the grid's cells
     are wider than r_i + r_j + skin, so a ball in reach sits in the 3^D cells around the escaped
     ball's current position. Escaped balls meet each other pair by pair."""
-    D = len(g)
     for e in range(ne):
         i = escapes[e]
-        x0, x1, y0, y1, z0, z1, nx, ny = neighbour_rows(0, i, xs, grid, D)
-        for qz in range(z0, z1):
-            for qy in range(y0, y1):
-                row = (qz * ny + qy) * nx
-                for j in range(grid.start[0, row + x0], grid.start[0, row + x1]):
-                    if escaped[j] == 0:
-                        pair_contact(FORCE, 0, i, j, xs, vs, a, 0.0, True, sm, friction, g)
+        m = cell_partners(0, i, xs, grid, False, cand, D)
+        for t in range(m):
+            j = cand[t]
+            if escaped[j] == 0:
+                pair_force(0, i, j, xs, vs, a, sm, D)
         for f in range(e + 1, ne):
-            pair_contact(FORCE, 0, i, escapes[f], xs, vs, a, 0.0, True, sm, friction, g)
+            pair_force(0, i, escapes[f], xs, vs, a, sm, D)
 
 
 @njit
-def _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, buf):
+def _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, buf):
     """Listed pair forces and terrain contacts of every ball in slab s (serial, storage order:
-    :func:`.contact_listed.listed_forces`, ``buf`` its block of the calling thread). A function of
-    its own, not inlined: each inlined call site would compile the force law again."""
-    listed_forces(
-        start[s * layer], start[(s + 1) * layer], xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, buf
-    )
+    :func:`..contact.listed.listed_forces`, ``buf`` its block of the calling thread)."""
+    listed_forces(start[s * layer], start[(s + 1) * layer], xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, buf)
 
 
-@njit(parallel=True)
-def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads, full):
+@njit
+def _shapes_near(full, lw, xs, D):
+    """Flag (bit 2 of ``near``) every ball within a skin of a shape other than the static spheres
+    and bowls at the build (each such shape's phi is 1-Lipschitz, or the clearance says -inf: then
+    every ball is tested at every step)."""
+    table = full.shapes
+    if not has_summed_shapes(table):
+        return
+    near = lw.near
+    for i in range(xs.shape[1]):
+        p2 = xs[0, i, 2] if D == 3 else 0.0
+        if not terrain_clearance(table, 0, xs[0, i, 0], xs[0, i, 1], p2, D) - full.radii[i] >= lw.skin:
+            near[i] |= 2
+
+
+@njit
+def _shape_forces(full, xs, vs, a, near, escaped, ne, D):
+    """The other shapes' forces on the balls flagged near them and on the escaped ones (serial)."""
+    table = full.shapes
+    if not has_summed_shapes(table):
+        return
+    for i in range(xs.shape[1]):
+        if (near[i] & 2) != 0 or (ne > 0 and escaped[i] != 0):
+            p2 = xs[0, i, 2] if D == 3 else 0.0
+            u2 = vs[0, i, 2] if D == 3 else 0.0
+            f0, f1, f2 = summed_terrain(
+                table, 0, xs[0, i, 0], xs[0, i, 1], p2, vs[0, i, 0], vs[0, i, 1], u2, full.radii[i], full, D
+            )
+            a[0, i, 0] += f0
+            a[0, i, 1] += f1
+            if D == 3:
+                a[0, i, 2] += f2
+
+
+@njit(entry=True, parallel=True)
+def run_large(integ, nsteps, dt, x, v, ext, has_ext, sm, g, status, lw, threads, full):
     """Symplectic or explicit Euler for a world too large to run one per thread. Returns the number
     of steps taken: fewer than ``nsteps`` when the world blew up (``status``) or when a ball has more
     neighbours than the list holds (``lw.state[1]`` says how many; the caller grows it and goes on).
@@ -318,9 +188,9 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
     on the state, so splitting the steps over calls changes nothing. ``x``, ``v``, ``ext``,
     ``status`` are the world's own ``(1, n, D)`` / ``(1,)`` slices, in ball order: gathered into
     storage order on entry, scattered back on exit. ``sm`` is a Model
-    whose radii / inv_mass arrays are the world's own, permuted with the storage, without general
-    shapes; ``full`` is the same with them (or ``sm`` itself when there are none): the general
-    shapes run in two serial passes (:func:`_general_near`, :func:`_general_forces`). ``threads``: how
+    whose radii / inv_mass arrays are the world's own, permuted with the storage, with the static
+    spheres and bowls only; ``full`` is the same as a :class:`~..model.Model` with the world's whole
+    shape table: the other shapes run in two serial passes (:func:`_shapes_near`, :func:`_shape_forces`). ``threads``: how
     many ways to split the slabs (the thread count, at most ``len(lw.moved)``; the result does not
     depend on it).
     """
@@ -340,23 +210,23 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
             xs[0, i, k] = x[0, u, k]
             vs[0, i, k] = v[0, u, k]
             a[0, i, k] = 0.0
-            if ext is not None:
+            if has_ext:
                 es[0, i, k] = ext[0, u, k]
     ok = True
     taken = 0
     while taken < nsteps:
         if lw.state[0] == 0:
             # re-sort the storage by grid cell, then list every pair within reach
-            if not build_grid(0, xs, grid, sm, g):
+            if not build_grid(0, xs, grid, sm.cell_size, D):
                 ok = False
                 break
             order = lw.order
             for i in range(n):
                 order[i] = grid.items[0, i]
-            _permute_rows(xs, order, lw.tmp)
-            _permute_rows(vs, order, lw.tmp)
-            if ext is not None:
-                _permute_rows(es, order, lw.tmp)
+            permute_rows(xs, order, lw.tmp)
+            permute_rows(vs, order, lw.tmp)
+            if has_ext:
+                permute_rows(es, order, lw.tmp)
             for i in range(n):
                 j = order[i]
                 lw.tmp[i, 0] = sm.radii[j]
@@ -367,8 +237,9 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
                 sm.inv_mass[i] = lw.tmp[i, 1]
                 perm[i] = lw.itmp[i]
                 escaped[i] = 0
-            most = _build_list(grid, xs, sm, lw, g)
-            _general_near(full, lw, xs, g)
+                grid.items[0, i] = i  # the grid now speaks of storage slots
+            most = build_list(grid, xs, sm, lw, threads, g)
+            _shapes_near(full, lw, xs, D)
             lw.state[1] = most
             lw.state[2] += 1
             lw.state[3] = 0
@@ -382,15 +253,15 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
         # parallel, then the odd ones, each advancing itself and the next once its forces are in.
         # What a ball receives, and in which order, depends on the slabs, never on the threads.
         if ne > 0:
-            _escaped_contacts(xs, vs, a, grid, sm, friction, g, escaped, escapes, ne)
-        _general_forces(full, xs, vs, a, friction, g, near, escaped, ne)
+            _escaped_contacts(xs, vs, a, grid, sm, escaped, escapes, ne, lw.candidates[0], D)
+        _shape_forces(full, xs, vs, a, near, escaped, ne, D)
         # cells in one layer along the last axis (not "layer = 1; layer *= ...": the literal 1 typed
         # one of the two passes' calls of _slab_forces apart, and compiled it twice)
         layer = grid.dims[0, 0] * grid.dims[0, 1] if D == 3 else grid.dims[0, 0]
         slabs = grid.dims[0, D - 1]
         for t in prange(threads):
             for q in range(t, (slabs + 1) // 2, threads):  # round robin: the slabs differ in size
-                _slab_forces(2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, pairs[t])
+                _slab_forces(2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, pairs[t])
         for t in prange(threads):
             marked = 0
             # (an int64 copy of t: a prange index may be unsigned, and int64 with uint64 unifies to float)
@@ -400,10 +271,10 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
                 s1 = 1
                 if q >= 0:
                     s0 = 1 + 2 * q
-                    _slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, pairs[t])
+                    _slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, pairs[t])
                     s1 = min(s0 + 2, slabs)  # this slab and the next, contiguous in storage
                 m = _advance(
-                    integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, ext, sm, xref, escaped, half2, g
+                    integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, has_ext, sm, xref, escaped, half2, g
                 )
                 marked = -1 if (m < 0 or marked < 0) else marked + m
                 q = np.int64(t) if q < 0 else q + threads
@@ -426,17 +297,17 @@ def run_large(integ, nsteps, dt, x, v, ext, sm, friction, g, status, lw, threads
             if ne > escapes.shape[0]:
                 lw.state[0] = 0
         lw.state[3] = ne
-        advance_geometry(full, 0, dt, D)  # kinematic shapes move on (nothing if none)
+        advance_shapes(full.shapes, 0, dt, D)  # kinematic shapes move on (nothing if none)
     for i in prange(n):
         u = perm[i]
         for k in range(D):
             x[0, u, k] = xs[0, i, k]
             v[0, u, k] = vs[0, i, k]
-    status[0] = final_status(0, ok, x, v, g)
+    status[0] = final_status(0, ok, x, v, D)
     return taken
 
 
-def _serial_twin(fn: Any, name: str, **callees: Any) -> Any:
+def _serial_twin(fn: Any, name: str, entry: bool = False, **callees: Any) -> Any:
     """A jitted function of ``fn``'s Python source compiled without ``parallel`` (its ``prange``
     loops run as plain loops, so it launches no parallel region) and with the GIL released, under
     its own name (so its own Numba cache entry), its calls to ``callees`` (name: jitted function)
@@ -447,26 +318,27 @@ def _serial_twin(fn: Any, name: str, **callees: Any) -> Any:
     twin.__qualname__ = name
     twin.__module__ = py.__module__
     twin.__doc__ = f"{py.__name__} run serially on the calling thread (see _serial_twin)."
-    return njit(nogil=True)(twin)
+    return njit(entry=entry, nogil=True)(twin)
 
 
-_permute_rows_serial = _serial_twin(_permute_rows, "_permute_rows_serial")
-_build_list_serial = _serial_twin(_build_list, "_build_list_serial")
+permute_rows_serial = _serial_twin(permute_rows, "permute_rows_serial")
+build_list_serial = _serial_twin(build_list, "build_list_serial")
 # ``run_large`` on the calling thread alone, ``threads`` = 1: no parallel region, the GIL released;
 # the same result as ``run_large``, bit for bit (the runner steps a batch of worlds so, a share of
 # the worlds per thread, and a small world alone)
 run_large_serial = _serial_twin(
-    run_large, "run_large_serial", _permute_rows=_permute_rows_serial, _build_list=_build_list_serial
+    run_large, "run_large_serial", entry=True, permute_rows=permute_rows_serial, build_list=build_list_serial
 )
 
 
 class NeighbourLists:
-    """One neighbour list (:data:`LargeWorld`) per world of a batch, and its stepping.
+    """One neighbour list (:class:`~..broadphase.verlet.LargeWorld`) per world of a batch, and its
+    stepping.
 
-    ``model`` is the World's :class:`~.model.Model`; each world gets a :class:`~.model.SlimModel` of
-    it whose radii and inverse masses follow its storage order, and whose cell size is wide enough
-    for the list's reach (and, with general shapes, a full Model sharing those arrays for the
-    serial passes).
+    ``model`` is the World's :class:`~..model.Model`; each world gets a
+    :class:`~..broadphase.verlet.SlimModel` of it whose radii and inverse masses follow its storage
+    order, and whose cell size is wide enough for the list's reach, and a full Model sharing those
+    arrays, with its own world's shape table, for the serial passes.
     """
 
     def __init__(self, model: Any, B: int, n: int, d: int, threads: int) -> None:
@@ -475,43 +347,22 @@ class NeighbourLists:
         self.radii = np.array(model.radii)
         self.inv_mass = np.array(model.inv_mass)
         self.skin = NEIGHBOUR_SKIN * 2.0 * float(self.radii.max())
-        self.worlds: list[tuple[LargeWorld, Any]] = []
-        self.full: list[Any] = []  # per world: its Model with its general shapes (world b's as world 0)
-        self._entries: dict[bool, Any] = {}  # run_large_serial's compiled entry, by whether ext is None
+        self.worlds: list[tuple[Any, SlimModel]] = []
+        self.full: list[Any] = []  # per world: its Model with its own shape table (world b's as world 0)
+        self._entries: dict[bool, Any] = {}  # run_large_serial's compiled entry, by whether ext is given
         for b in range(B):
             radii, inv_mass = self.radii.copy(), self.inv_mass.copy()  # permuted with the storage
             cell = model.cell_size + self.skin
             core = SlimModel.of(model, radii=radii, inv_mass=inv_mass, cell_size=cell)
             self.worlds.append((self._new(4 * (d - 1) ** 2 + 5), core))
-            full = model._replace(
-                radii=radii, inv_mass=inv_mass, cell_size=cell, geometry=world_slice(model.geometry, b)
+            self.full.append(
+                model._replace(radii=radii, inv_mass=inv_mass, cell_size=cell, shapes=model.shapes.world(b))
             )
-            self.full.append(core if model.geometry is None else full)
         self.reset()
 
-    def _new(self, cap: int) -> LargeWorld:
-        n, d = self.n, self.d
-        return LargeWorld(
-            x=np.zeros((1, n, d)),
-            v=np.zeros((1, n, d)),
-            a=np.zeros((1, n, d)),
-            ext=np.zeros((1, n, d)),
-            grid=new_grid(1, n),
-            perm=np.arange(n),
-            order=np.zeros(n, dtype=np.int64),
-            itmp=np.zeros(n, dtype=np.int64),
-            tmp=np.zeros((n, max(d, 2))),
-            nbr=np.zeros((n, cap), dtype=np.int32),
-            count=np.zeros(n, dtype=np.int32),
-            near=np.zeros(n, dtype=np.int8),
-            xref=np.zeros((n, d)),
-            escaped=np.zeros(n, dtype=np.int8),
-            escapes=np.zeros(int(np.clip(n // 256, 64, LARGE_WORLD_MAX_ESCAPES)), dtype=np.int64),
-            moved=np.zeros(self.threads, dtype=np.int64),  # one per thread
-            pairs=np.zeros((self.threads, PAIR_ROWS, max(PAIR_BLOCK, cap))),
-            skin=self.skin,
-            state=np.zeros(4, dtype=np.int64),
-        )
+    def _new(self, cap: int) -> Any:
+        escapes = int(np.clip(self.n // 256, 64, LARGE_WORLD_MAX_ESCAPES))
+        return new_large_world(self.n, self.d, cap, self.threads, escapes, PAIR_ROWS, PAIR_BLOCK, self.skin)
 
     def reset(self, worlds: Any = slice(None)) -> None:
         """A world's storage order and list are history: after new state, start afresh, so the
@@ -530,8 +381,8 @@ class NeighbourLists:
         dt: float,
         x: np.ndarray,
         v: np.ndarray,
-        ext: np.ndarray | None,
-        friction: Any,
+        ext: np.ndarray,
+        has_ext: bool,
         g: tuple,
         status: np.ndarray,
         worlds: Any = None,
@@ -546,25 +397,13 @@ class NeighbourLists:
             done = 0
             while done < n:
                 lw, model = self.worlds[b]
-                wext = None if ext is None else ext[w]
                 if serial:
-                    args = (integ, n - done, dt, x[w], v[w], wext, model, friction, g, status[w], lw, 1, self.full[b])
+                    args = (integ, n - done, dt, x[w], v[w], ext[w], has_ext, model, g, status[w], lw, 1, self.full[b])
                     done += self._serial_entry(args)(*args)
                 else:
+                    threads = self.threads
                     done += run_large(
-                        integ,
-                        n - done,
-                        dt,
-                        x[w],
-                        v[w],
-                        wext,
-                        model,
-                        friction,
-                        g,
-                        status[w],
-                        lw,
-                        self.threads,
-                        self.full[b],
+                        integ, n - done, dt, x[w], v[w], ext[w], has_ext, model, g, status[w], lw, threads, self.full[b]
                     )
                 if status[b] != STATUS_OK:
                     break
@@ -577,12 +416,10 @@ class NeighbourLists:
     def _serial_entry(self, args: tuple) -> Any:
         """:func:`run_large_serial` compiled for these argument types, called without Numba's
         per-call type resolution (a microsecond per field of each NamedTuple argument, paid per
-        world and call). Keyed by whether there is an external force: every other argument's type
-        is fixed by the World."""
-        key = args[5] is None
-        entry = self._entries.get(key)
+        world and call). Every argument's type is fixed by the World."""
+        entry = self._entries.get(True)
         if entry is None:
-            entry = self._entries[key] = entry_point(run_large_serial, args)
+            entry = self._entries[True] = entry_point(run_large_serial, args)
         return entry
 
     def stats(self, b: int = 0) -> dict:

@@ -1,0 +1,203 @@
+"""The terrain side of a :class:`~.world.World`: each shape's pose per world, height fields' heights,
+and the terrain's signed distance at points."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as V
+from .geometry.evaluate import evaluate
+from .geometry.heightfield import HeightField
+from .geometry.table import DIRECT, INDEX, MOVING, pose_columns
+
+__all__ = ["TerrainAccess", "per_world"]
+
+
+def per_world(name: str, value: Any, shape: tuple[int, ...], count: int) -> np.ndarray:
+    """``value`` of ``shape``, or one per world (``(count,) + shape``); finite."""
+    arr = V.real_array(name, value)
+    if arr.shape == (1,) and shape == ():
+        arr = arr.reshape(())
+    if arr.shape != shape and arr.shape != (count,) + shape:
+        raise ValueError(
+            f"{name} must have shape {shape} (all chosen worlds) or {(count,) + shape} (one per world), got {arr.shape}"
+        )
+    return arr
+
+
+class TerrainAccess:
+    """A World's terrain methods (``terrain``, its shapes; ``_rows``, each one's table row)."""
+
+    terrain: tuple
+    _rows: tuple
+    _model: Any
+    _runner: Any
+    n_worlds: int
+    dim: int
+    _world_index: Any
+
+    def _slot(self, shape: Any) -> tuple[int, int]:
+        """(terrain index, table row) of a shape that may move."""
+        k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
+        row = self._rows[k]
+        if self._model.shapes.flags[row] & DIRECT:
+            raise ValueError(
+                f"terrain[{k}] is a static {type(self.terrain[k]).__name__}: static spheres and bowls are shared by "
+                f"every world and cannot move; give it velocity=(0.0,) * d at construction to make it kinematic"
+            )
+        return k, row
+
+    def _pose_rows(self, row: int) -> np.ndarray:
+        """The (B, P) pose rows of a table row (a view into the model's arrays)."""
+        return self._model.shapes.pose[:, row]
+
+    def shape_pose(self, shape: int, world: int = 0) -> dict[str, np.ndarray]:
+        """The current pose of ``terrain[shape]`` in one world: ``position`` (its centre), ``rotation``,
+        ``velocity`` and ``angular_velocity`` (3 components in 3D, 1 in 2D). Static spheres and
+        bowls report their fixed pose."""
+        k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
+        b = V.integer("world", world, 0, self.n_worlds - 1)
+        d = self.dim
+        if self._model.shapes.flags[self._rows[k]] & DIRECT:
+            t = self.terrain[k]
+            return {
+                "position": np.array(t.center),
+                "rotation": np.eye(d),
+                "velocity": np.zeros(d),
+                "angular_velocity": np.zeros(3 if d == 3 else 1),
+            }
+        row = self._pose_rows(self._rows[k])[b]
+        cols = pose_columns(d)
+        omega = row[cols["angular_velocity"]]
+        return {
+            "position": row[cols["position"]].copy(),
+            "rotation": row[cols["rotation"]].reshape(d, d).copy(),
+            "velocity": row[cols["velocity"]].copy(),
+            "angular_velocity": omega.copy() if d == 3 else omega[2:].copy(),
+        }
+
+    def set_shape_pose(
+        self,
+        shape: int,
+        position: Any = None,
+        rotation: Any = None,
+        velocity: Any = None,
+        angular_velocity: Any = None,
+        worlds: Any = None,
+    ) -> None:
+        """Move ``terrain[shape]`` between steps, in every world or in ``worlds``: its centre, its
+        rotation matrix, and (for a shape made kinematic, with a velocity or angular velocity at
+        construction) the velocity and angular velocity it moves on with in every step. A paddle or
+        a lid a policy moves sets them at every control step. Values are one for all the chosen
+        worlds, or one per world (a leading axis of len(worlds))."""
+        k, row = self._slot(shape)
+        d = self.dim
+        idx = self._world_index(worlds)
+        count = self.n_worlds if worlds is None else len(np.atleast_1d(idx))
+        if (velocity is not None or angular_velocity is not None) and not self._model.shapes.flags[row] & MOVING:
+            raise ValueError(
+                f"terrain[{k}] was made static (it does not move with every step): give it velocity=(0.0,) * {d} "
+                f"at construction to set its velocity or angular velocity"
+            )
+        rows = self._pose_rows(row)
+        cols = pose_columns(d)
+        values = []
+        if position is not None:
+            values.append(("position", per_world("position", position, (d,), count)))
+        if rotation is not None:
+            R = per_world("rotation", rotation, (d, d), count)
+            for m in R.reshape(-1, d, d):
+                if np.abs(m.T @ m - np.eye(d)).max() > 1e-9 or np.linalg.det(m) < 0.0:
+                    raise ValueError(
+                        f"rotation must be a rotation matrix ({d}x{d}, orthonormal, det +1), got {m.tolist()}"
+                    )
+            values.append(("rotation", R.reshape(R.shape[:-2] + (d * d,))))
+        if velocity is not None:
+            values.append(("velocity", per_world("velocity", velocity, (d,), count)))
+        if angular_velocity is not None:
+            w = per_world("angular_velocity", angular_velocity, (3,) if d == 3 else (1,), count)
+            if d == 2:
+                full = np.zeros(w.shape[:-1] + (3,))
+                full[..., 2] = w[..., 0]
+                w = full
+            values.append(("angular_velocity", w))
+        for column, value in values:  # all checked before any is written
+            if worlds is None:
+                rows[:, cols[column]] = value
+            else:
+                rows[idx, cols[column]] = value
+        self._runner.forget(idx)
+
+    def set_heights(self, shape: int, heights: Any, worlds: Any = None) -> None:
+        """Replace the node heights of the HeightField ``terrain[shape]`` in every world or in
+        ``worlds`` (one grid for all of them, or one per world), between steps. Balls are not moved
+        (see :meth:`set_shape_pose`)."""
+        k, row = self._slot(shape)
+        hf = self.terrain[k]
+        if not isinstance(hf, HeightField):
+            raise ValueError(f"terrain[{k}] is a {type(hf).__name__}, not a HeightField")
+        nx, ny = hf.grid_shape
+        idx = self._world_index(worlds)
+        count = self.n_worlds if worlds is None else len(np.atleast_1d(idx))
+        shape_ = (nx,) if self.dim == 2 else (nx, ny)
+        h = per_world("heights", heights, shape_, count)
+        table = self._model.shapes
+        start = int(table.shape[row, INDEX])
+        flat = h.reshape(h.shape[: h.ndim - len(shape_)] + (nx * ny,))
+        table.heights[idx, start : start + nx * ny] = flat
+        self._runner.forget(idx)
+
+    def shape_distance(self, shape: int, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """phi and the outward normal of ``terrain[shape]`` at its current pose in one world, at
+        ``points`` (..., d): ``(phi (...), normal (..., d))``."""
+        k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
+        b = V.integer("world", world, 0, self.n_worlds - 1)
+        pts, flat = self._points(points)
+        row = self._rows[k]
+        if self._model.shapes.flags[row] & DIRECT:
+            phi, normal = self.terrain[k].phi(flat), self.terrain[k].grad_phi(flat)
+        else:
+            ev = self._evaluate(b, flat)
+            phi, normal = ev[:, row, 0], ev[:, row, 1 : 1 + self.dim]
+        return phi.reshape(pts.shape[:-1]), normal.reshape(pts.shape)
+
+    def _points(self, points: Any) -> tuple[np.ndarray, np.ndarray]:
+        pts = V.real_array("points", points)
+        if pts.shape[-1:] != (self.dim,):
+            raise ValueError(f"points must have last dimension {self.dim}, got shape {pts.shape}")
+        return pts, np.ascontiguousarray(pts.reshape(-1, self.dim))
+
+    def _evaluate(self, b: int, flat: np.ndarray) -> np.ndarray:
+        """(m, S, 4): phi and the normal of every table row of world b at the points ``flat``."""
+        ev = np.zeros((len(flat), self._model.shapes.count, 4))
+        evaluate(self._model.shapes, b, flat, ev)
+        return ev
+
+    def terrain_distance(self, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """The terrain's signed distance at ``points`` (..., d) in one world, the smallest phi of
+        its shapes at their current poses (the union of their solids), and the outward normal of
+        that shape: ``(phi (...), normal (..., d))``; inf and zeros without terrain."""
+        b = V.integer("world", world, 0, self.n_worlds - 1)
+        pts, flat = self._points(points)
+        d = self.dim
+        phi = np.full(len(flat), np.inf)
+        normal = np.zeros((len(flat), d))
+        flags = self._model.shapes.flags
+        general = [k for k in range(len(self.terrain)) if not flags[self._rows[k]] & DIRECT]
+        for k, shape in enumerate(self.terrain):
+            if flags[self._rows[k]] & DIRECT:
+                p, n = shape.phi(flat), shape.grad_phi(flat)
+                closer = p < phi
+                phi = np.where(closer, p, phi)
+                normal = np.where(closer[:, None], n, normal)
+        if general:
+            rows = sorted(self._rows[k] for k in general)  # the table's order
+            ev = self._evaluate(b, flat)[:, rows]
+            k = np.argmin(ev[:, :, 0], axis=1)
+            best = ev[np.arange(len(flat)), k]
+            closer = best[:, 0] < phi
+            phi = np.where(closer, best[:, 0], phi)
+            normal = np.where(closer[:, None], best[:, 1 : 1 + d], normal)
+        return phi.reshape(pts.shape[:-1]), normal.reshape(pts.shape)
