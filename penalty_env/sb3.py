@@ -23,7 +23,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
 from . import _validate as V
-from .envs import fused_step as KE
+from .envs import kernel as KE
 from .envs.penalty_balls import MAX_EPISODE_STEPS
 from .envs.render import Renderer
 from .envs.scene import PenaltyBallsScene, coerce_action, render_fps

@@ -18,7 +18,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from .. import _validate as V
-from . import fused_step as KE
+from . import kernel as KE
 from .render import HumanWindow, Renderer
 from .scene import CHOICE_PARAMETERS, PARAMETERS, PenaltyBallsScene, coerce_action, render_fps
 

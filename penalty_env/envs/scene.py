@@ -23,12 +23,10 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import _validate as V
-from ..physics import Bowl, HeightField, Plane, World, theory
-from ..physics import runner as _runner
-from ..physics.broadphase import new_grid
+from ..physics import Bowl, HeightField, Motor, Plane, World, theory
 from ..physics.configure import configure
-from ..physics.lanes import LANES
-from . import fused_step as KE
+from ..physics.stepping import runner as _runner
+from . import kernel as KE
 from .observation import ObservationLayout
 
 __all__ = ["PenaltyBallsScene", "PARAMETERS", "check_parameters", "coerce_action", "render_fps"]
@@ -314,20 +312,19 @@ class PenaltyBallsScene:
         # the contact point, rolling resistance); the pusher's motor still pushes at its centre (so
         # an action means what it means in v0), and friction at the ground makes it roll
         self.rolling = p["physics"] == "rolling"
+        motor = Motor(0, p["max_force"], p["max_speed"], axes=d - 1)
+        stepping = "scalar" if (self.rolling or n_grains) else "lanes"
+        # with grains the bodies (few, large) meet every ball directly; the grains meet each other
+        # through a grid of the grains' own size (its lead balls): cells of the pusher's size would
+        # hold ~(r_pusher / r_grain)^3 grains each
+        own = dict(common, stepping=stepping, motors=[motor], grid_lead=self.n_bodies if n_grains else 0)
         if self.rolling:
             self.world = World(
-                start,
-                self.radii,
-                self.masses,
-                dt=self.dt,
-                mu=self.mu,
-                rotation=True,
-                mu_r=p["rolling_resistance"],
-                **common,
+                start, self.radii, self.masses, dt=self.dt, mu=self.mu, rotation=True, mu_r=p["rolling_resistance"], **own
             )
             self.kf = self.world.kf  # the largest the tangential effective mass allows (2/7 of v0's in 3D)
         else:
-            self.world = World(start, self.radii, self.masses, dt=self.dt, mu=self.mu, kf=self.kf, **common)
+            self.world = World(start, self.radii, self.masses, dt=self.dt, mu=self.mu, kf=self.kf, **own)
 
         # --- spaces and the observation's layout (one definition: the kernel, the bounds, the docs)
         self.action_size = d - 1
@@ -355,6 +352,8 @@ class PenaltyBallsScene:
             success_bonus=SUCCESS_BONUS,
             goal_tolerance=self.goal_tolerance,
             push_offset=p["pusher_radius"] + p["ball_radius"],
+            substeps=self.substeps,
+            goal_axes=d - 1 if n_grains else d,  # with sand, the goal is reached horizontally
         )
         # resting overlap m g / ks puts each ball at rest on the terrain at the start
         rest_depth = self.masses * self.gravity / self.ks_terrain
@@ -366,67 +365,41 @@ class PenaltyBallsScene:
 
         # --- per-world state and output buffers, allocated once
         self.goal = np.zeros((B, d))
-        self.buffers = KE.new_buffers(B, self.obs_size)
+        runner = self.world.runner
+        self.buffers = KE.new_buffers(B, self.obs_size, runner.status)
         self.obs = self.buffers.obs
         self.actions = np.zeros((B, self.action_size))
         self.stepping = np.ones(B, dtype=np.bool_)  # off for a world just reset: observed, not stepped
         self._all = np.arange(B, dtype=np.int64)
         self._chunks = self._split(self._all)
         self._velocity_zeros = np.zeros((B, n, d))
-        # one SIMD-lane scratch per thread (the kernel's chunks run concurrently)
-        threads = _runner.thread_count()
-        scalar = self.rolling or n_grains > 0  # stepped by the scalar step, not the SIMD lanes
-        self._lane_scratch: Any = None if scalar else np.zeros((threads, 6, n, d, LANES))
-        self._lane_ids = np.zeros((threads, LANES), dtype=np.int64)
-        # with rotation or grains the scalar step's accelerations and external force, (B, n, d) each
-        self._scalar_scratch = (np.zeros((B, n, d)), np.zeros((B, n, d))) if scalar else None
-        # what the kernel steps: the World's own state and model (so ``world.positions``,
-        # ``set_state``, ``energy`` and ``max_penetration`` see what the env steps). The World is
-        # stepped with symplectic Euler over all pairs, which keeps nothing derived from its state,
-        # so writing the state in the kernel leaves nothing stale.
-        state, model = self.world.state, self.world.model
+        self._ids = np.zeros((_runner.thread_count(), B), dtype=np.int64)  # per thread: the worlds it steps
+        # with grains: the sand's height map around the ball; the settled bed (made once per
+        # configuration, see ``settled_bed``)
+        self.heightmap = KE.HeightMap(
+            first=self.n_bodies,
+            cells=HEIGHTMAP_CELLS if n_grains else 0,
+            cell=HEIGHTMAP_CELL,
+            bowl_radius=R if self.terrain_kind == "bowl" else 0.0,
+            offset=self.layout.heightmap_offset,
+            top=2.0 * R,
+        )
         if n_grains:
-            # the bodies (few, large) meet every ball directly; the grains meet each other through a
-            # grid of the grains' own size (``new_grid``'s lead balls): cells of the pusher's size
-            # would hold ~(r_pusher / r_grain)^3 grains each
-            model = model._replace(cell_size=2.0 * float(self.radii[self.n_bodies :].max()))
-            self.grid = new_grid(B, n, lead=self.n_bodies, cells_per_ball=16)
-        self.model = model
-        self._state = (state.positions, state.velocities)
+            # how long the bed was settled and how fast its fastest grain still moved (set by settled_bed)
+            self.settle_time, self.settle_speed = math.nan, math.nan
+            self.bed = settled_bed(self)
         self._tail = (
-            model,
-            self.world.runner.friction,  # (mu, kf) or None; with rotation the World's Spin
-            model.gravity,
-            self.dt,
-            self.substeps,
             self.task,
             self.layout.table,
             np.stack([self.layout.low, self.layout.high]),
             self.goal,
             self.buffers,
+            self.heightmap,
         )
-        # with grains: the grid the scalar step sorts the balls into (the scene's own: the World's
-        # has no lead balls and pusher-sized cells), and the
-        # height map's constants; the settled bed (made once per configuration, see ``settled_bed``)
-        if n_grains:
-            self.heightmap = KE.HeightMap(
-                first=self.n_bodies,
-                cells=HEIGHTMAP_CELLS,
-                cell=HEIGHTMAP_CELL,
-                bowl_radius=R if self.terrain_kind == "bowl" else 0.0,
-                offset=self.layout.heightmap_offset,
-                top=2.0 * R,
-            )
-            # how long the bed was settled and how fast its fastest grain still moved (set by settled_bed)
-            self.settle_time, self.settle_speed = math.nan, math.nan
-            self.bed = settled_bed(self)
-            self._kernel = KE.step_sand_worlds
-        else:
-            self._kernel = KE.step_worlds
         # the arguments of a whole-batch step, made once, and the kernel compiled for their types
         # (called without Numba's per-call type resolution: the arguments are fixed)
         self._step_calls = self._calls(self._chunks)
-        self._step_kernel = _runner.entry_point(self._kernel, self._step_calls[0])
+        self._step_kernel = _runner.entry_point(KE.step_worlds, self._step_calls[0])
 
     # ------------------------------------------------------------------ construction helpers
     def _make_terrain(self) -> tuple:
@@ -573,24 +546,19 @@ class PenaltyBallsScene:
         self._run(self._all, self._chunks)
 
     def _calls(self, chunks: Sequence[np.ndarray]) -> list[tuple]:
-        x, v = self._state
-        head = (self.actions, self.stepping, x, v)
-        if self.n_grains:
-            grid = self.grid
-            return [(c,) + head + (self._scalar_scratch, grid) + self._tail + (self.heightmap,) for c in chunks]
+        runner = self.world.runner
+        lanes = runner.lane_scratch
         return [
-            (c,)
-            + head
-            + (self._scalar_scratch if self.rolling else self._lane_scratch[i], self._lane_ids[i])
+            (c, self.actions, self.stepping, runner.physics, None if lanes is None else lanes[t], self._ids[t])
             + self._tail
-            for i, c in enumerate(chunks)
+            for t, c in enumerate(chunks)
         ]
 
     def _run(self, worlds: np.ndarray, chunks: Sequence[np.ndarray]) -> None:
         if chunks is self._chunks:
             codes = _runner.dispatch(self._step_kernel, self._step_calls)
         else:
-            codes = _runner.dispatch(self._kernel, self._calls(chunks))
+            codes = _runner.dispatch(self._step_kernel, self._calls(chunks))
         code = min(codes) if min(codes) < 0 else sum(codes)
         if code != KE.OK:
             self._raise(code)

@@ -139,12 +139,15 @@ class Physics(NamedTuple):
 
 
 class LanesPhysics(NamedTuple):
-    """What the SIMD-lanes path steps (symplectic or explicit Euler, all pairs)."""
+    """What the SIMD-lanes path steps (symplectic or explicit Euler, all pairs), and the grid and
+    scratch of the world's scalar passes (its diagnostics)."""
 
     x: np.ndarray
     v: np.ndarray
     symplectic: bool
     control: Control
+    grid: Any
+    scratch: Scratch
     model: Model
     g: tuple
     dt: float
@@ -220,7 +223,9 @@ class Runner:
         self.lists = NeighbourLists(model, B, n, d, thread_count()) if path == "neighbour_list" else None
         if path == "lanes":
             sym = integrator == "symplectic_euler"
-            self.physics: Any = LanesPhysics(state.positions, state.velocities, sym, control, model, g, dt, status)
+            self.physics: Any = LanesPhysics(
+                state.positions, state.velocities, sym, control, grid, self.scratch, model, g, dt, status
+            )
         else:
             self.physics = Physics(
                 state.positions, state.velocities, work, control, grid, self.scratch, model, spin, g, dt, status

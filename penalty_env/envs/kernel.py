@@ -1,32 +1,31 @@
-"""The env's jitted step: action to motor force, physics substeps, observation and reward, fused.
+"""The env's step kernel: act, step the physics on the World's own path, observe and reward.
 
-One call advances the worlds listed in ``worlds`` by one control period. The physics is the core's
-own symplectic Euler step in its SIMD-across-worlds form (:mod:`..physics.lanes`: a block of worlds
-per vector instruction, bit-identical world by world to the scalar step), so a world's trajectory
-does not depend on which env (single, vector, SB3) steps it or on how many worlds share the batch.
-Everything else a step needs (the motor force, the observation, the reward terms, the penetration
-diagnostic) happens in the same call, so Python touches a batch once per step, and nothing is
-allocated.
+One call advances the worlds listed in ``worlds`` by one control period. The actions become the
+throttles of the pusher's motor (a :class:`~..physics.Motor` of the World), and the physics is the
+World's own stepping path with its own buffers and code (:func:`..physics.stepping.runner.advance`:
+the SIMD-lanes path for balls that slide, the scalar path for balls that roll and for sand), so
+an episode is exactly what ``World.step`` computes, and a world's trajectory does not depend on
+which env (single, vector, SB3) steps it or on how many worlds share the batch. The observation,
+the reward terms and the penetration diagnostic happen in the same call, so Python touches a batch
+once per step, and nothing is allocated.
 
 The data protocol between the scene and this kernel is named: :class:`TaskParams` (the task's
-constants) and :class:`StepBuffers` (what a step writes, one entry per world). Ball order in every
-world: 0 the pusher, 1 the ball, 2.. the obstacles. The last axis is "up"; the others are
-horizontal.
+constants), :class:`HeightMap` (the sand's height map) and :class:`StepBuffers` (what a step
+writes, one entry per world). Ball order in every world: 0 the pusher, 1 the ball, 2.. the
+obstacles, then the grains. The last axis is "up"; the others are horizontal.
 """
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
-from numba.extending import overload
 
 from .._jit import njit
-from ..physics import lanes as L
-from ..physics.broadphase import build_grid, contacts
-from ..physics.contact import MAXPEN
-from ..physics.integrators import final_status, symplectic_euler_into
-from ..physics.rotation import is_spin, spin_tick
+from ..physics.broadphase.grid import build_grid, uses_cells
+from ..physics.diagnostics import deepest_contact
+from ..physics.stepping.runner import advance
 
 __all__ = [
     "TaskParams",
@@ -35,7 +34,6 @@ __all__ = [
     "INFO_KEYS",
     "new_buffers",
     "step_worlds",
-    "step_sand_worlds",
     "first_bad_action",
     "OK",
 ]
@@ -68,10 +66,12 @@ class TaskParams(NamedTuple):
     success_bonus: float
     goal_tolerance: float  # success radius, m
     push_offset: float  # pusher radius + ball radius: the push point's distance behind the ball
+    substeps: int  # physics steps per env step
+    goal_axes: int  # the axes over which the goal is reached: all d, or the d - 1 horizontal (sand)
 
 
 class HeightMap(NamedTuple):
-    """The sand's height map around the ball (scenes with grains): its constants."""
+    """The sand's height map around the ball (scenes with grains; ``cells`` 0 without): its constants."""
 
     first: int  # the first grain's index (the bodies come before)
     cells: int  # cells per horizontal axis
@@ -96,7 +96,7 @@ class StepBuffers(NamedTuple):
     info: np.ndarray  # (len(INFO_KEYS) - 1, B) float64: the float info values, rows in INFO_KEYS order
     success: np.ndarray  # (B,) bool
     prev: np.ndarray  # (2, B) float64: the last ball-goal and pusher-push point distances
-    status: np.ndarray  # (B,) int64
+    status: np.ndarray  # (B,) int64: the World's status (0 ok, 1 NaN or inf)
 
     # the info rows by name
     reward_goal = property(lambda self: self.info[_R_GOAL])
@@ -107,24 +107,25 @@ class StepBuffers(NamedTuple):
     max_overlap = property(lambda self: self.info[_R_OVERLAP])  # the largest overlap / the smaller radius
 
 
-def new_buffers(n_worlds: int, obs_size: int) -> StepBuffers:
-    """Buffers for n_worlds worlds."""
+def new_buffers(n_worlds: int, obs_size: int, status: np.ndarray) -> StepBuffers:
+    """Buffers for n_worlds worlds (``status``: the World's own per-world status, which the step
+    sets)."""
     return StepBuffers(
         obs=np.zeros((n_worlds, obs_size), dtype=np.float32),
         reward=np.zeros(n_worlds),
         info=np.zeros((len(_FLOAT_INFO), n_worlds)),
         success=np.zeros(n_worlds, dtype=np.bool_),
         prev=np.zeros((2, n_worlds)),
-        status=np.zeros(n_worlds, dtype=np.int64),
+        status=status,
     )
 
 
-@njit(inline="always")
+@njit
 def _clip(value, lo, hi):
     return min(max(value, lo), hi)
 
 
-@njit(inline="always")
+@njit
 def _distances(b, x, goal, task, D):
     """(ball-goal distance, pusher-push-point distance) of world b.
 
@@ -134,17 +135,17 @@ def _distances(b, x, goal, task, D):
     for k in range(D):
         dk = goal[b, k] - x[b, 1, k]
         dg2 += dk * dk
-    dg = np.sqrt(dg2)
+    dg = math.sqrt(dg2)
     inv = 1.0 / dg if dg > 0.0 else 0.0
     dp2 = 0.0
     for k in range(D):
         push_k = x[b, 1, k] - (goal[b, k] - x[b, 1, k]) * inv * task.push_offset
         dk = push_k - x[b, 0, k]
         dp2 += dk * dk
-    return dg, np.sqrt(dp2)
+    return dg, math.sqrt(dp2)
 
 
-@njit(inline="always")
+@njit
 def observe(b, x, v, goal, obs, table, bounds, D):
     """Write world b's observation, clipped to ``bounds`` ((2, size): low, high).
 
@@ -172,7 +173,7 @@ def observe(b, x, v, goal, obs, table, bounds, D):
             obs[b, base + D + k] = _clip(v[b, j, k], lo[base + D + k], hi[base + D + k])
 
 
-@njit(inline="always")
+@njit
 def _throttle_scale(act, b, na):
     """The throttle a is clipped to [-1, 1] per axis and then to the unit disc (this factor), so
     the self-driven speed |v| = |a| v_max never exceeds v_max."""
@@ -180,102 +181,10 @@ def _throttle_scale(act, b, na):
     for k in range(na):
         ak = _clip(act[b, k], -1.0, 1.0)
         a2 += ak * ak
-    return 1.0 / np.sqrt(a2) if a2 > 1.0 else 1.0
-
-
-@njit(inline="always")
-def _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
-    """Advance the W worlds ``ids[:W]`` by one control period, one world per SIMD lane.
-
-    The lanes step is the core's (:func:`..physics.lanes.lanes_step`), bit-identical to the scalar
-    symplectic Euler step world by world. ``S`` is this thread's (6, n, D, LANES) scratch: state,
-    accelerations, external force, the motor throttle and the pair-force buffer. Returns the number
-    of blown-up worlds."""
-    na = act.shape[1]
-    X, V, A, E, T, F = S[0], S[1], S[2], S[3], S[4], S[5, 0]
-    fmax = task.max_force
-    inv_vmax = 1.0 / task.max_speed
-    L.load_block(ids, 0, W, x, v, X, V)
-    for i in range(E.shape[0]):
-        for k in range(E.shape[1]):
-            for w in range(W):
-                E[i, k, w] = 0.0
-    for w in range(W):
-        b = ids[w]
-        scale = _throttle_scale(act, b, na)
-        for k in range(na):
-            T[0, k, w] = _clip(act[b, k], -1.0, 1.0) * scale
-    for _ in range(substeps):
-        # the pusher's motor: F_max (a - v / v_max) (a DC motor's linear force-speed law),
-        # re-evaluated every substep
-        for k in range(na):
-            for w in range(W):
-                E[0, k, w] = fmax * (T[0, k, w] - V[0, k, w] * inv_vmax)
-        L.lanes_step(True, dt, X, V, A, E, F, W, ids, 0, model, friction, g)
-    return L.store_block(ids, 0, W, x, v, X, V, status, g)
-
-
-@njit(inline="always")
-def _scalar_world(b, act, x, v, S, grid, model, friction, dt, substeps, task, g):
-    """Advance world b by one control period with the core's scalar symplectic Euler step
-    (``grid``: the grid broad phase, or None for all pairs); the motor is :func:`_physics_block`'s.
-    ``S`` is ``(a, ext)``, (B, n, D) each, shared by the threads (each world's rows are its own).
-    Returns the world's status (0: finite)."""
-    A, E = S
-    na = act.shape[1]
-    fmax = task.max_force
-    inv_vmax = 1.0 / task.max_speed
-    scale = _throttle_scale(act, b, na)
-    for i in range(E.shape[1]):
-        for k in range(E.shape[2]):
-            E[b, i, k] = 0.0
-    ok = True
-    for _ in range(substeps):
-        for k in range(na):
-            E[b, 0, k] = fmax * (_clip(act[b, k], -1.0, 1.0) * scale - v[b, 0, k] * inv_vmax)
-        ok = symplectic_euler_into(A, b, dt, x, v, E, grid, model, friction, g) and ok
-        spin_tick(friction, b)
-    return final_status(b, ok, x, v, g)
+    return 1.0 / math.sqrt(a2) if a2 > 1.0 else 1.0
 
 
 @njit
-def _spin_block(ids, W, act, x, v, S, model, spin, dt, substeps, task, status, g):
-    """Advance the W worlds ``ids[:W]`` by one control period with rotation (``physics="rolling"``):
-    the core's scalar symplectic Euler step with the rotating contact law, world by world
-    (:func:`_scalar_world`, all pairs; the SIMD-lanes twin does not rotate). Returns the number of
-    blown-up worlds."""
-    bad = 0
-    for w in range(W):
-        b = ids[w]
-        st = _scalar_world(b, act, x, v, S, None, model, spin, dt, substeps, task, g)
-        status[b] = st
-        if st != 0:
-            bad += 1
-    return bad
-
-
-def physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
-    """One control period of the worlds ``ids[:W]``: :func:`_physics_block` (SIMD lanes), or
-    :func:`_spin_block` when the balls rotate (jitted code only)."""
-    raise NotImplementedError
-
-
-@overload(physics_block)  # not inlined: inlining a choice made at compile time trips Numba's SSA checks
-def _physics_block_choice(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
-    if is_spin(friction):
-
-        def spinning(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
-            return _spin_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g)
-
-        return spinning
-
-    def sliding(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g):
-        return _physics_block(ids, W, act, x, v, S, model, friction, dt, substeps, task, status, g)
-
-    return sliding
-
-
-@njit(inline="always")
 def _refuse_bad_action(worlds, act, stepping):
     """-(1 + b) for the first stepping world b of ``worlds`` whose action is NaN or inf, else 0."""
     for t in range(worlds.shape[0]):
@@ -287,52 +196,7 @@ def _refuse_bad_action(worlds, act, stepping):
     return 0
 
 
-@njit(nogil=True)
-def step_worlds(
-    worlds, act, stepping, x, v, scratch, ids, model, friction, g, dt, substeps, task, table, bounds, goal, buf
-):
-    """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
-    observe them without stepping). ``x``, ``v``, ``model``, ``friction`` and ``g`` are the
-    World's own (``World.state``, ``World.model``); gravity's length D compiles the D-dimensional
-    code; with rotation ``friction`` is the World's :class:`~..physics.rotation.Spin` and
-    ``scratch`` :func:`_spin_block`'s buffers (:func:`physics_block`). ``table``, ``bounds``: the
-    observation layout and its bounds."""
-    n_lanes = ids.shape[0]
-    status = buf.status
-    refused = _refuse_bad_action(worlds, act, stepping)  # before anything moves
-    if refused < 0:
-        return refused
-    D = len(g)
-    # physics: the stepping worlds, LANES at a time
-    bad = 0
-    W = 0
-    for t in range(worlds.shape[0]):
-        b = worlds[t]
-        status[b] = 0
-        if stepping[b]:
-            ids[W] = b
-            W += 1
-            if W == n_lanes:
-                bad += physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, task, status, g)
-                W = 0
-    if W > 0:
-        bad += physics_block(ids, W, act, x, v, scratch, model, friction, dt, substeps, task, status, g)
-    # observation, reward and diagnostics, world by world
-    for t in range(worlds.shape[0]):
-        b = worlds[t]
-        if status[b] != 0:
-            continue
-        dg, dp = _distances(b, x, goal, task, D)
-        observe(b, x, v, goal, buf.obs, table, bounds, D)
-        info = buf.info
-        info[_R_OVERLAP, b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, None, model, None, g)
-        info[_R_DISTANCE, b] = dg
-        info[_R_PUSHER, b] = dp
-        _reward(b, stepping[b], dg, dp, task, buf)
-    return bad
-
-
-@njit(inline="always")
+@njit
 def _reward(b, stepped, dg, dp, task, buf):
     """World b's reward terms, success and shaping potentials from its distances ``dg`` (ball to
     goal) and ``dp`` (pusher to push point); a world just reset (not ``stepped``) gets no reward."""
@@ -358,7 +222,7 @@ def _reward(b, stepped, dg, dp, task, buf):
     prev[1, b] = dp
 
 
-@njit(nogil=True)
+@njit(entry=True, nogil=True)
 def first_bad_action(act, skip):
     """Index of the first world whose action holds NaN or inf (worlds with ``skip`` set are
     ignored: their action is not used), or -1."""
@@ -371,7 +235,7 @@ def first_bad_action(act, skip):
     return -1
 
 
-@njit(inline="always")
+@njit
 def observe_sand(b, x, model, obs, hm, D):
     """World b's sand height map into its observation: in each of the ``hm.cells``^(D-1) cells of
     edge ``hm.cell`` centred on the ball (row-major: x, then y), the depth of the sand there, the
@@ -393,46 +257,68 @@ def observe_sand(b, x, model, obs, hm, D):
         if D == 3:
             c = c * H + min(int(w * inv), H - 1)
         rho2 = x[b, i, 0] * x[b, i, 0] + (x[b, i, 1] * x[b, i, 1] if D == 3 else 0.0)
-        floor = R - np.sqrt(max(R * R - rho2, 0.0)) if R > 0.0 else 0.0
+        floor = R - math.sqrt(max(R * R - rho2, 0.0)) if R > 0.0 else 0.0
         depth = min(x[b, i, D - 1] + model.radii[i] - floor, hm.top)
         if depth > obs[b, hm.offset + c]:
             obs[b, hm.offset + c] = depth
 
 
-@njit(nogil=True)
-def step_sand_worlds(
-    worlds, act, stepping, x, v, scratch, grid, model, friction, g, dt, substeps, task, table, bounds, goal, buf, hm
-):
-    """:func:`step_worlds` for a scene with grains: each world advanced by the core's scalar
-    symplectic Euler step through its own row of ``grid`` (the World's grid broad phase;
-    :func:`_scalar_world`), the observation completed by the sand's height map
-    (:func:`observe_sand`), and the goal reached horizontally (the sand's surface moves: the
-    ball-goal and pusher-push point distances are over the horizontal axes). ``max_overlap``
-    goes over every contact, grains included, through the grid."""
-    status = buf.status
-    refused = _refuse_bad_action(worlds, act, stepping)
+@njit
+def _max_overlap(b, x, phys, D):
+    """World b's largest overlap / the smaller radius, over every contact (through the World's
+    grid, built for x, where it has one)."""
+    if uses_cells(phys.grid):
+        build_grid(b, x, phys.grid, phys.model.cell_size, D)
+    return deepest_contact(b, x, phys.grid, phys.scratch.partners[b], phys.model, D)
+
+
+@njit
+def _act(ids, W, act, throttle):
+    """The actions of the worlds ``ids[:W]`` as the pusher motor's throttles: each component
+    clipped to [-1, 1], then the vector to the unit disc (so the self-driven speed |v| = |a| v_max
+    never exceeds v_max)."""
+    na = act.shape[1]
+    for w in range(W):
+        b = ids[w]
+        scale = _throttle_scale(act, b, na)
+        for k in range(na):
+            throttle[b, 0, k] = _clip(act[b, k], -1.0, 1.0) * scale
+
+
+@njit(entry=True, nogil=True)
+def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, task, table, bounds, goal, buf, hm):
+    """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
+    observe them without stepping). ``phys`` is the World's runner's bundle (its state, model and
+    buffers), ``lane_scratch`` this thread's SIMD-lanes scratch (None on the scalar path), ``ids`` a
+    per-thread list of worlds. ``table``, ``bounds``: the observation layout and its bounds; ``hm``
+    the sand's height map (``hm.cells`` 0: none). Returns OK plus the number of worlds that blew up,
+    or -(1 + b) for the first world b whose action is NaN or inf (nothing was stepped then)."""
+    refused = _refuse_bad_action(worlds, act, stepping)  # before anything moves
     if refused < 0:
         return refused
-    D = len(g)
-    bad = 0
+    x, v, status = phys.x, phys.v, phys.status
+    D = len(phys.g)
+    W = 0
     for t in range(worlds.shape[0]):
         b = worlds[t]
         status[b] = 0
         if stepping[b]:
-            st = _scalar_world(b, act, x, v, scratch, grid, model, friction, dt, substeps, task, g)
-            status[b] = st
-            if st != 0:
-                bad += 1
+            ids[W] = b
+            W += 1
+    _act(ids, W, act, phys.control.throttle)
+    bad = advance(phys, ids[:W], task.substeps, lane_scratch)  # sets status[b] (the World's)
+    # observation, reward and diagnostics, world by world
+    model = phys.model
     for t in range(worlds.shape[0]):
         b = worlds[t]
         if status[b] != 0:
             continue
-        dg, dp = _distances(b, x, goal, task, D - 1)  # horizontal
+        dg, dp = _distances(b, x, goal, task, task.goal_axes)
         observe(b, x, v, goal, buf.obs, table, bounds, D)
-        observe_sand(b, x, model, buf.obs, hm, D)
+        if hm.cells > 0:
+            observe_sand(b, x, model, buf.obs, hm, D)
         info = buf.info
-        build_grid(b, x, grid, model, g)  # for the positions now (the last substep moved them)
-        info[_R_OVERLAP, b] = contacts(MAXPEN, b, x, v, x, 0.0, 0.0, grid, model, None, g)
+        info[_R_OVERLAP, b] = _max_overlap(b, x, phys, D)
         info[_R_DISTANCE, b] = dg
         info[_R_PUSHER, b] = dp
         _reward(b, stepping[b], dg, dp, task, buf)
