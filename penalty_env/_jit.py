@@ -247,12 +247,10 @@ def _optimize_once() -> None:
             return original(self)
         self._codegen._check_llvm_bugs()
         self._raise_if_finalized()
-        if _CompileDepth.depth >= 2:  # a callee: its own code (and Numba's helpers); its entry links it
-            for library in self._linking_libraries:
-                if library.name not in _KERNELS:
-                    self._reload_init.update(library._reload_init)
-                    self._final_module.link_in(library._get_module_for_linking(), preserve=True)
-            self._finalize_final_module()
+        if _CompileDepth.depth >= 2:  # a callee: its IR only, for its entry to link (no machine code:
+            # without Python wrappers nothing calls it but the kernels it is linked into)
+            self._final_module.verify()
+            self._finalized = True
             return None
         for library in _call_tree(self):  # callers before callees: LLVM links a callee's
             # (linkonce) code only where something linked already calls it
@@ -263,12 +261,54 @@ def _optimize_once() -> None:
         self._finalize_final_module()
         return None
 
+    original_functions = library_class._optimize_functions
+
+    def _optimize_functions(self, ll_module):
+        if _CompileDepth.depth >= 2 and self.name in _KERNELS:
+            ll_module.data_layout = self._codegen._data_layout
+            return None  # a callee: optimised once, with its entry
+        return original_functions(self, ll_module)
+
+    library_class._optimize_functions = _optimize_functions
+    codegen_class = _codegen.JITCPUCodegen
+    original_set_env = codegen_class.set_env
+
+    def set_env(self, env_name, env):
+        if not self._engine.is_symbol_defined(env_name):
+            return None  # a callee's: it has no machine code of its own
+        return original_set_env(self, env_name, env)
+
     finalize._penalty_env = True  # type: ignore[attr-defined]
     library_class.finalize = finalize
+    codegen_class.set_env = set_env
     _numba_event.register("numba:compile", _CompileDepth())
 
 
 _optimize_once()
+
+
+def _load_without_refresh() -> None:
+    """Load this package's cached kernels without first loading every Numba registry.
+
+    Numba refreshes its compilation context (importing all of its typing and lowering modules,
+    and through them SciPy: about 0.3 s) before it loads a cached kernel, though the load itself
+    compiles nothing; every compile refreshes the context again on its own. So a process whose
+    kernels all come from the cache skips that time."""
+    original = caching.Cache.load_overload
+    if getattr(original, "_penalty_env", False):
+        return
+
+    def load_overload(self, sig, target_context):
+        if not isinstance(self._impl.locator, PackageCacheLocator):
+            return original(self, sig, target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    load_overload._penalty_env = True  # type: ignore[attr-defined]
+    caching.Cache.load_overload = load_overload
+
+
+_load_without_refresh()
 
 
 def njit(*args, entry: bool = False, **kwargs):

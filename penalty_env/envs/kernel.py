@@ -273,12 +273,12 @@ def _max_overlap(b, x, phys, D):
 
 
 @njit
-def _act(ids, W, act, throttle):
-    """The actions of the worlds ``ids[:W]`` as the pusher motor's throttles: each component
-    clipped to [-1, 1], then the vector to the unit disc (so the self-driven speed |v| = |a| v_max
-    never exceeds v_max)."""
+def _act(ids, act, throttle):
+    """The actions of the worlds ``ids`` as the pusher motor's throttles: each component clipped
+    to [-1, 1], then the vector to the unit disc (so the self-driven speed |v| = |a| v_max never
+    exceeds v_max)."""
     na = act.shape[1]
-    for w in range(W):
+    for w in range(ids.shape[0]):
         b = ids[w]
         scale = _throttle_scale(act, b, na)
         for k in range(na):
@@ -286,18 +286,18 @@ def _act(ids, W, act, throttle):
 
 
 @njit(entry=True, nogil=True)
-def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, task, table, bounds, goal, buf, hm):
+def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, g, task, table, bounds, goal, buf, hm):
     """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
     observe them without stepping). ``phys`` is the World's runner's bundle (its state, model and
     buffers), ``lane_scratch`` this thread's SIMD-lanes scratch (None on the scalar path), ``ids`` a
-    per-thread list of worlds. ``table``, ``bounds``: the observation layout and its bounds; ``hm``
+    per-thread list of worlds, ``g`` the World's gravity (the dimension). ``table``, ``bounds``: the observation layout and its bounds; ``hm``
     the sand's height map (``hm.cells`` 0: none). Returns OK plus the number of worlds that blew up,
     or -(1 + b) for the first world b whose action is NaN or inf (nothing was stepped then)."""
     refused = _refuse_bad_action(worlds, act, stepping)  # before anything moves
     if refused < 0:
         return refused
     x, v, status = phys.x, phys.v, phys.status
-    D = len(phys.g)
+    D = len(g)
     W = 0
     for t in range(worlds.shape[0]):
         b = worlds[t]
@@ -305,7 +305,7 @@ def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, task, table, bou
         if stepping[b]:
             ids[W] = b
             W += 1
-    _act(ids, W, act, phys.control.throttle)
+    _act(ids[:W], act, phys.control.throttle)
     bad = advance(phys, ids[:W], task.substeps, lane_scratch)  # sets status[b] (the World's)
     # observation, reward and diagnostics, world by world
     model = phys.model

@@ -389,6 +389,7 @@ class PenaltyBallsScene:
             self.settle_time, self.settle_speed = math.nan, math.nan
             self.bed = settled_bed(self)
         self._tail = (
+            self.world.gravity,
             self.task,
             self.layout.table,
             np.stack([self.layout.low, self.layout.high]),

@@ -172,7 +172,7 @@ class TerrainAccess:
     def _evaluate(self, b: int, flat: np.ndarray) -> np.ndarray:
         """(m, S, 4): phi and the normal of every table row of world b at the points ``flat``."""
         ev = np.zeros((len(flat), self._model.shapes.count, 4))
-        evaluate(self._model.shapes, b, flat, ev)
+        evaluate(self._model.shapes, b, flat, ev, self.gravity)
         return ev
 
     def terrain_distance(self, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:

@@ -55,18 +55,18 @@ USER_FD_STEP = 6e-6  # central differences' step, relative to max(1, |q|_inf): ~
 
 
 # ---------------------------------------------------------------------------------------------
-# Frames: a centre at row[c:c + D] and a rotation row-major at row[c + D:]
+# Frames: a centre at row[:D] and a rotation row-major at row[D:]
 # ---------------------------------------------------------------------------------------------
 
 
 @njit
-def to_local(row, c, x0, x1, x2, D):
-    """q = R^T (x - centre)."""
-    d0 = x0 - row[c]
-    d1 = x1 - row[c + 1]
-    R = c + D
+def to_local(row, x0, x1, x2, D):
+    """q = R^T (x - centre), the frame's centre at row[:D] and its rotation (row-major) after it."""
+    d0 = x0 - row[0]
+    d1 = x1 - row[1]
+    R = D
     if D == 3:
-        d2 = x2 - row[c + 2]
+        d2 = x2 - row[2]
         return (
             row[R] * d0 + row[R + 3] * d1 + row[R + 6] * d2,
             row[R + 1] * d0 + row[R + 4] * d1 + row[R + 7] * d2,
@@ -76,9 +76,9 @@ def to_local(row, c, x0, x1, x2, D):
 
 
 @njit
-def to_parent(row, c, n0, n1, n2, D):
-    """R n: a local direction in the parent frame."""
-    R = c + D
+def to_parent(row, n0, n1, n2, D):
+    """R n: a local direction in the parent frame (the frame as :func:`to_local`'s)."""
+    R = D
     if D == 3:
         return (
             row[R] * n0 + row[R + 1] * n1 + row[R + 2] * n2,
@@ -121,9 +121,10 @@ def csg_sdf(prog, leaves, q0, q1, q2, D):
         op = prog[t]
         if op >= 0:
             leaf = leaves[op]
-            t0, t1, t2 = to_local(leaf, 1, q0, q1, q2, D)
+            frame = leaf[1:]
+            t0, t1, t2 = to_local(frame, q0, q1, q2, D)
             phi, n0, n1, n2 = primitive_sdf(int(leaf[0]), t0, t1, t2, leaf[P], leaf[P + 1], leaf[P + 2], D)
-            m0, m1, m2 = to_parent(leaf, 1, n0, n1, n2, D)
+            m0, m1, m2 = to_parent(frame, n0, n1, n2, D)
             s3 = s2
             s2 = s1
             s1 = s0
@@ -200,11 +201,11 @@ def user_sdf(phi, grad, q0, q1, q2, D):
         g0 = _call_phi(phi, q0 + h, q1, q2) - _call_phi(phi, q0 - h, q1, q2)
         g1 = _call_phi(phi, q0, q1 + h, q2) - _call_phi(phi, q0, q1 - h, q2)
         g2 = _call_phi(phi, q0, q1, q2 + h) - _call_phi(phi, q0, q1, q2 - h)
-        return _normalised(_call_phi(phi, q0, q1, q2), g0, g1, g2, 3)
+        return _normalised(_call_phi(phi, q0, q1, q2), g0, g1, g2, D)
     h = USER_FD_STEP * max(1.0, abs(q0), abs(q1))
     g0 = _call_phi(phi, q0 + h, q1, 0.0) - _call_phi(phi, q0 - h, q1, 0.0)
     g1 = _call_phi(phi, q0, q1 + h, 0.0) - _call_phi(phi, q0, q1 - h, 0.0)
-    return _normalised(_call_phi(phi, q0, q1, 0.0), g0, g1, 0.0, 2)
+    return _normalised(_call_phi(phi, q0, q1, 0.0), g0, g1, 0.0, D)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -243,9 +244,9 @@ def shape_sdf(table, b, s, x0, x1, x2, D):
         q2 = x2 - pose[2] if D == 3 else 0.0
         phi, n0, n1, n2 = sdf_round(q0, q1, q2, table.shape[s, P0], 0.0, 0.0, D)
         return sg * phi, sg * n0, sg * n1, sg * n2
-    q0, q1, q2 = to_local(pose, 0, x0, x1, x2, D)
+    q0, q1, q2 = to_local(pose, x0, x1, x2, D)
     phi, n0, n1, n2 = local_sdf(table, b, s, q0, q1, q2, D)
-    m0, m1, m2 = to_parent(pose, 0, n0, n1, n2, D)
+    m0, m1, m2 = to_parent(pose, n0, n1, n2, D)
     return sg * phi, sg * m0, sg * m1, sg * m2
 
 
@@ -380,10 +381,11 @@ def terrain_clearance(table, b, p0, p1, p2, D):
 
 
 @njit(entry=True, nogil=True)
-def evaluate(table, b, points, out):
+def evaluate(table, b, points, out, dim):
     """phi and grad phi of every shape of world b at ``points`` (m, d): ``out`` (m, S, 4)
-    receives (phi, n0, n1, n2), shapes in the table's order."""
-    D = points.shape[1]
+    receives (phi, n0, n1, n2), shapes in the table's order (``dim``: a tuple of d floats, the
+    dimension as the kernels take it)."""
+    D = len(dim)
     for s in range(table.kind.shape[0]):
         for t in range(points.shape[0]):
             x2 = points[t, 2] if D == 3 else 0.0

@@ -219,7 +219,7 @@ class Shape:
         pts = _as_points(points, self.dim)
         flat = np.ascontiguousarray(pts.reshape(-1, self.dim))
         out = np.zeros((flat.shape[0], 1, 4))
-        evaluate(self._single(), 0, flat, out)
+        evaluate(self._single(), 0, flat, out, (0.0,) * self.dim)
         return out[:, 0, :].reshape(pts.shape[:-1] + (4,))
 
     def phi(self, points: Any) -> np.ndarray:

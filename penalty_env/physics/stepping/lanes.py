@@ -75,19 +75,25 @@ def lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, model, g):
 
 
 @njit
-def _copy_block(block, W, x, v, X, V, load):
-    """Copy the block's W worlds between (B, n, D) state and the lanes layout (n, D, LANES):
-    into the lanes when ``load``, back to the state otherwise."""
+def _load_block(block, W, x, v, X, V):
+    """Copy the block's W worlds from (B, n, D) state into the lanes layout (n, D, LANES)."""
     for i in range(x.shape[1]):
         for k in range(x.shape[2]):
             for w in range(W):
                 b = block[w]
-                if load:
-                    X[i, k, w] = x[b, i, k]
-                    V[i, k, w] = v[b, i, k]
-                else:
-                    x[b, i, k] = X[i, k, w]
-                    v[b, i, k] = V[i, k, w]
+                X[i, k, w] = x[b, i, k]
+                V[i, k, w] = v[b, i, k]
+
+
+@njit
+def _store_block(block, W, x, v, X, V):
+    """Copy the block's W worlds back from the lanes layout to the (B, n, D) state."""
+    for i in range(x.shape[1]):
+        for k in range(x.shape[2]):
+            for w in range(W):
+                b = block[w]
+                x[b, i, k] = X[i, k, w]
+                v[b, i, k] = V[i, k, w]
 
 
 @njit
@@ -131,14 +137,14 @@ def run_lanes(symplectic, worlds, nsteps, dt, x, v, scratch, control, model, g, 
     for c in range(0, worlds.shape[0], LANES):
         W = min(LANES, worlds.shape[0] - c)
         block = worlds[c : c + W]
-        _copy_block(block, W, x, v, X, V, True)
+        _load_block(block, W, x, v, X, V)
         if has_ext:
             _load_inputs(block, W, control, motors, E, T)
         for _ in range(nsteps):
             if motors.ball.shape[0] > 0:
                 _motors_lanes(block, W, V, E, T, control, motors)
             lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, model, g)
-        _copy_block(block, W, x, v, X, V, False)
+        _store_block(block, W, x, v, X, V)
         for w in range(W):
             b = block[w]
             status[b] = final_status(b, True, x, v, D)
