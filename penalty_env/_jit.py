@@ -243,15 +243,15 @@ def _optimize_once() -> None:
         return  # a Numba without this hook: compile as Numba does
 
     def finalize(self):
-        if self.name not in _KERNELS:
-            return original(self)
         self._codegen._check_llvm_bugs()
         self._raise_if_finalized()
-        if _CompileDepth.depth >= 2:  # a callee: its IR only, for its entry to link (no machine code:
-            # without Python wrappers nothing calls it but the kernels it is linked into)
+        if _CompileDepth.depth >= 2 and self.name in _KERNELS:
+            # a callee: its IR only, for its entries to link (no machine code: without Python
+            # wrappers nothing calls it but the kernels it is linked into)
             self._final_module.verify()
             self._finalized = True
             return None
+        # an entry (or a library of Numba's, which may link a callee): its whole call tree, once
         for library in _call_tree(self):  # callers before callees: LLVM links a callee's
             # (linkonce) code only where something linked already calls it
             self._reload_init.update(library._reload_init)

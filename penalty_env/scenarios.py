@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .physics import Bowl, World, theory
-from .physics import events as EV
+from .physics.stepping import events as EV
 
 __all__ = [
     "balls_in_bowl",
@@ -412,11 +412,13 @@ def bowl_drop(
     g=G,
     kd=None,
     dt=None,
+    terrain=None,
 ) -> Measure:
     """Ball falling along the bowl's axis, arriving at the floor at ``speed`` at phase k/phases of
     the second step. Errors: rebound ``restitution`` (speed at the floor on the way up, from the
     first state after the contact, by energy in free flight) and ``peak_overlap``, against the exact
-    solution with gravity."""
+    solution with gravity. ``terrain``: another floor touched at the bowl's bottom (the origin,
+    normal up), for instance a Plane."""
     if kd is None:
         kd = 2.0 * zeta * math.sqrt(ks * mass)
     zeta = theory.damping_ratio(ks, kd, mass)
@@ -442,7 +444,7 @@ def bowl_drop(
         kd=kd,
         dt=dt,
         gravity=(0.0, 0.0, -g),
-        terrain=(BOWL,),
+        terrain=(BOWL,) if terrain is None else terrain,
     )
     peak = np.zeros(phases)
     v_exit = np.full(phases, np.nan)

@@ -1,4 +1,4 @@
-"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,ab,shapes,granular,scale} [options]``."""
+"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup} [options]``."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ COMMANDS = {
     "energy": "penalty_env.bench.energy",
     "soak": "penalty_env.bench.soak",
     "figures": "penalty_env.bench.figures",
-    "ab": "penalty_env.bench.ab",
     "shapes": "penalty_env.bench.shapes",
     "granular": "penalty_env.bench.granular",
     "scale": "penalty_env.bench.scale",
+    "startup": "penalty_env.bench.startup",
 }
 
 

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..physics import World, theory
-from ..physics.shapes import Box, Cylinder, Difference, Plane, Sphere
+from ..physics import Box, Cylinder, Difference, Plane, Sphere
 
 CASES = ("packing3d", "packing2d", "repose2d", "repose3d", "beverloo2d", "beverloo3d", "lammps", "lammps_repose")
 G = 1.0  # gravity

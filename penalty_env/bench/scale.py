@@ -34,8 +34,8 @@ import numpy as np
 
 from .._jit import njit
 from ..physics import World
-from ..physics.neighbour_list import _slab_forces
-from ..physics.runner import thread_count
+from ..physics.stepping.large import _slab_forces
+from ..physics.stepping.runner import thread_count
 from ..physics.world import NEIGHBOUR_SKIN
 from ..scenarios import packed_bowl, scene_params
 from .core import _time_large
@@ -475,12 +475,12 @@ def plot(rows: list[Row], path: Path) -> None:
     plt.close(fig)
 
 
-@njit
-def _force_pass(slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, buf):  # type: ignore[no-untyped-def]
+@njit(entry=True)
+def _force_pass(slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, buf):  # type: ignore[no-untyped-def]
     """The neighbour list's force pass alone (every slab in storage order, serially: the work of
     ``run_large``'s even and odd slab passes, without the advance)."""
     for s in range(slabs):
-        _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, friction, g, escaped, ne, buf)
+        _slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, buf)
 
 
 def listed_world(bed: Bed) -> tuple[World, Any, Any, Any]:
@@ -508,19 +508,19 @@ def phase_profile(bed: Bed, steps: int = 20, reps: int = 5) -> dict:
     slabs = int(grid.dims[0, 2])
     scratch = np.zeros_like(lw.a)
     fargs = (slabs, layer, grid.start[0], lw.x, lw.v, scratch, lw.nbr, lw.count, lw.near, sm)
-    friction, g = w._runner.friction, w._runner.g
+    g = w._runner.g
     saved = numba.get_num_threads()
     t_step = t_force = t_build = math.inf
     numba.set_num_threads(1)
     try:
-        _force_pass(*fargs, friction, g, lw.escaped, int(lw.state[3]), lw.pairs[0])  # compile
+        _force_pass(*fargs, g, lw.escaped, int(lw.state[3]), lw.pairs[0])  # compile
         for _ in range(reps):
             t = time.perf_counter()
             w.step(steps)
             t_step = min(t_step, (time.perf_counter() - t) / steps)
             t = time.perf_counter()
             for _ in range(steps):
-                _force_pass(*fargs, friction, g, lw.escaped, int(lw.state[3]), lw.pairs[0])
+                _force_pass(*fargs, g, lw.escaped, int(lw.state[3]), lw.pairs[0])
             t_force = min(t_force, (time.perf_counter() - t) / steps)
             t = time.perf_counter()
             for _ in range(steps // 4 or 1):

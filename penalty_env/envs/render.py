@@ -128,7 +128,7 @@ def _rect(img, x0f, y0f, x1f, y1f, r, g, b):
             _blend(img, px, py, r, g, b, 1.0)
 
 
-@njit
+@njit(entry=True)
 def _draw_3d(img, pos, radii, colors, goal, goal_tol, ground, scale, order):
     """Top view: x right, y up in the world (down in the image); z gives shadow and order;
     ``ground`` is the terrain's height under each ball."""
@@ -185,7 +185,7 @@ def _draw_3d(img, pos, radii, colors, goal, goal_tol, ground, scale, order):
         _sphere(img, cx, cy, rad, colors[i, 0], colors[i, 1], colors[i, 2], lx, ly, lz)
 
 
-@njit
+@njit(entry=True)
 def _draw_2d(img, pos, radii, colors, goal, goal_tol, R, scale, ground_px, bodies):
     """Side view: x right, z up (y = ground_px at z = 0). The balls after the first ``bodies``
     (the grains) are drawn first, the bodies over them."""

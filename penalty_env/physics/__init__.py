@@ -22,6 +22,7 @@ Layout (each folder one concern; an import never points up this table):
 """
 
 from . import theory
+from .stepping import events, lanes
 from .geometry import (
     SDF,
     Bowl,
@@ -69,6 +70,8 @@ __all__ = [
     "SDF",
     "rotation_matrix",
     "theory",
+    "events",
+    "lanes",
     "implicit_overlap",
     "ImplicitOverlap",
 ]

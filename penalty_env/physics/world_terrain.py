@@ -149,6 +149,20 @@ class TerrainAccess:
         table.heights[idx, start : start + nx * ny] = flat
         self._runner.forget(idx)
 
+    def shape_heights(self, shape: int, world: int = 0) -> np.ndarray:
+        """The node heights of the HeightField ``terrain[shape]`` in one world (a copy):
+        ``(nx, ny)`` in 3D, ``(nx,)`` in 2D."""
+        k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
+        b = V.integer("world", world, 0, self.n_worlds - 1)
+        hf = self.terrain[k]
+        if not isinstance(hf, HeightField):
+            raise ValueError(f"terrain[{k}] is a {type(hf).__name__}, not a HeightField")
+        nx, ny = hf.grid_shape
+        table = self._model.shapes
+        start = int(table.shape[self._rows[k], INDEX])
+        flat = table.heights[b, start : start + nx * ny].copy()
+        return flat if self.dim == 2 else flat.reshape(nx, ny)
+
     def shape_distance(self, shape: int, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """phi and the outward normal of ``terrain[shape]`` at its current pose in one world, at
         ``points`` (..., d): ``(phi (...), normal (..., d))``."""

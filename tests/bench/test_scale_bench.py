@@ -40,36 +40,3 @@ def test_scale_smallest_configuration_writes_finite_positive_rates(tmp_path):
     assert any(r["section"] == "batch" and r["note"] == "auto" for r in timed)
     assert (tmp_path / "scale.png").stat().st_size > 0
     assert list((tmp_path / "cache").glob("bed-1000-*.npz"))  # the settled bed was cached
-
-
-def test_simd_lever_variants_compute_the_package_forces_bit_for_bit(tmp_path):
-    """The lever record (``python -m penalty_env.bench.simd_lever``): its current loop is the
-    package's listed pair law and its variants compute the same forces bit for bit (``measure``
-    raises otherwise); every timing is finite and positive."""
-    from penalty_env.bench import simd_lever
-
-    ns = simd_lever.measure(1000, steps=1, reps=1, cache_dir=tmp_path)
-    assert set(ns) == {*simd_lever.VARIANTS, "force pass"}
-    assert all(math.isfinite(t) and t > 0 for t in ns.values()), ns
-
-
-def test_pair_cost_law_row_is_the_package_law_bit_for_bit(tmp_path):
-    """The pair-cost breakdown (``python -m penalty_env.bench.pair_cost``): its "law" row computes
-    the package's listed pair forces bit for bit (``measure`` raises otherwise); every row is
-    timed, finite and positive."""
-    from penalty_env.bench import pair_cost
-
-    ns = pair_cost.measure(1000, steps=1, reps=1, cache_dir=tmp_path)
-    assert set(ns) == {*pair_cost.VARIANTS, "force pass", "listed pairs per ball"}
-    assert all(math.isfinite(t) and t > 0 for t in ns.values()), ns
-
-
-def test_the_list_pass_block_law_compiles_to_vector_code():
-    """The frictionless list pass computes its pairs' forces in one loop per block that LLVM
-    vectorises (square roots and divisions of several pairs per instruction): a branch or a gather
-    added to ``contact_listed._block_law`` would silently make it scalar again."""
-    from penalty_env.bench import pair_cost
-
-    code = pair_cost.block_law_vector_code()
-    assert code["<4 x double>"] + code["<2 x double>"] > 0, code
-    assert code["vsqrtpd"] > 0 and code["vdivpd"] > 0, code

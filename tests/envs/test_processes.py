@@ -22,7 +22,8 @@ SCRIPT = textwrap.dedent(
     import gymnasium as gym
     import numba
     import penalty_env
-    from penalty_env.physics import Bowl, World, runner
+    from penalty_env.physics import Bowl, World
+    from penalty_env.physics.stepping import runner
 
     serial_max = runner.SERIAL_MAX_BALLS
 

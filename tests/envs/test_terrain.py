@@ -65,14 +65,14 @@ def test_bumps_are_redrawn_at_every_reset_from_the_seed_and_have_the_chosen_heig
     grids = []
     for seed in (0, 0, 1):
         env.reset(seed=seed)
-        grids.append(scene.world.model.geometry.heights.heights[0, 0].copy())
+        grids.append(scene.world.shape_heights(0, world=0))
     assert np.array_equal(grids[0], grids[1]) and not np.array_equal(grids[0], grids[2])
     bumps = grids[0] - scene._bumpy_floor
     assert bumps.min() >= 0.0 and 0.3 * 0.1 <= bumps.max() <= 0.1 + 1e-12
     flat = gym.make("PenaltyBalls-v0", terrain="bumpy", roughness=0.0).unwrapped.scene
     flat_env = gym.make("PenaltyBalls-v0", terrain="bumpy", roughness=0.0)
     flat_env.reset(seed=0)
-    assert np.array_equal(flat_env.unwrapped.scene.world.model.geometry.heights.heights[0, 0], flat._bumpy_floor)
+    assert np.array_equal(flat_env.unwrapped.scene.world.shape_heights(0), flat._bumpy_floor)
 
 
 @pytest.mark.parametrize("env_id", IDS)

@@ -13,7 +13,7 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv
 import penalty_env  # noqa: F401
 from penalty_env.envs import PenaltyBallsVectorEnv
 from penalty_env.envs.scripted import ScriptedPusher
-from penalty_env.physics.runner import split, thread_count
+from penalty_env.physics.stepping.runner import split, thread_count
 
 DIM = {"PenaltyBalls-v0": 3, "PenaltyBalls2D-v0": 2}
 

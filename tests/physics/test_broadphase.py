@@ -45,18 +45,9 @@ def test_grid_and_all_pairs_broad_phases_give_the_same_trajectories(d, n, contac
     [(3, True), pytest.param(3, False, marks=pytest.mark.slow), pytest.param(2, True, marks=pytest.mark.slow)],
 )
 def test_lead_balls_meet_every_ball_directly_and_small_cells_still_find_every_contact(d, rotation, contact_kwargs):
-    """``new_grid(lead=k)``: the first k balls (here two large ones among small grains) stay out of
-    the grid and meet every ball directly; the grid's cells are sized for the small balls only.
-    The forces (and torques) are those of all pairs, to round-off: no contact is lost."""
-    from numba import njit
-
-    from penalty_env.physics.broadphase import build_grid, new_grid
-    from penalty_env.physics.integrators import forces as forces_
-
-    @njit
-    def forces(b, x, v, a, grid, model, friction, g):
-        forces_(b, x, v, a, grid, model, friction, g)
-
+    """``World(grid_lead=k)``: the first k balls (here two large ones among small grains) stay out
+    of the grid and meet every ball directly; the grid's cells are sized for the small balls only.
+    A step is that of all pairs, to round-off (velocities and spins): no contact is lost."""
     n = 60 if d == 2 else 120
     x, v, radii, _, bowl = balls_in_bowl(n, d, seed=5, radius=0.05, spacing=0.002, speed=0.8)
     radii = radii.copy()
@@ -66,31 +57,16 @@ def test_lead_balls_meet_every_ball_directly_and_small_cells_still_find_every_co
     x[0, 1, :] = x[0, 2 * n // 3, :] - 0.1
     masses = np.random.default_rng(5).uniform(0.5, 1.5, n)
     kw = contact_kwargs(masses)
-    world = World(
-        x[0],
-        radii,
-        masses,
-        v[0],
-        terrain=bowl,
-        mu=0.3,
-        rotation=rotation,
-        broadphase="all_pairs",
-        allow_unstable=True,
-        **kw,
-    )
-    model, friction, g = world.model, world.runner.friction, world.model.gravity
-    xs, vs = world.state.positions, world.state.velocities
-    a_all = np.zeros_like(xs)
-    forces(0, xs, vs, a_all, None, model, friction, g)
-    torque_all = friction.alpha.copy() if rotation else None
-    small = model._replace(cell_size=2.0 * float(radii[2:].max()))
-    grid = new_grid(1, n, lead=2)
-    assert build_grid(0, xs, grid, small, g)
-    assert grid.start[0, grid.dims[0, 3]] == n - 2  # the lead balls are not in the grid
-    a_grid = np.zeros_like(xs)
-    forces(0, xs, vs, a_grid, grid, small, friction, g)
-    contacts_large = np.sum(np.linalg.norm(xs[0, :2, None] - xs[0, None, 2:], axis=-1) < radii[:2, None] + 0.05)
+    common = dict(terrain=bowl, mu=0.3, rotation=rotation, allow_unstable=True, stepping="scalar", **kw)
+    every = World(x[0], radii, masses, v[0], broadphase="all_pairs", **common)
+    lead = World(x[0], radii, masses, v[0], broadphase="grid", grid_lead=2, **common)
+    assert lead.model.cell_size == 2.0 * float(radii[2:].max())  # cells of the grains' size
+    contacts_large = np.sum(np.linalg.norm(x[0, :2, None] - x[0, None, 2:], axis=-1) < radii[:2, None] + 0.05)
     assert contacts_large >= 4, "the large balls must touch grains for the comparison to mean anything"
-    np.testing.assert_allclose(a_grid, a_all, rtol=0, atol=1e-12 * np.abs(a_all).max())
+    every.step(1)
+    lead.step(1)
+    dv = every.velocities - v[0]
+    np.testing.assert_allclose(lead.velocities - v[0], dv, rtol=0, atol=1e-12 * np.abs(dv).max())
     if rotation:
-        np.testing.assert_allclose(friction.alpha, torque_all, rtol=0, atol=1e-12 * np.abs(torque_all).max())
+        w = every.angular_velocities
+        np.testing.assert_allclose(lead.angular_velocities, w, rtol=0, atol=1e-12 * np.abs(w).max())

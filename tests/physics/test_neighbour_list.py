@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from penalty_env.physics import Bowl, Sphere, World
-from penalty_env.physics.contact_listed import PAIR_BLOCK
+from penalty_env.physics.contact.listed import PAIR_BLOCK
 from penalty_env.physics.world import LARGE_WORLD_MIN_BALLS
 from penalty_env.scenarios import balls_in_bowl
 
@@ -306,7 +306,7 @@ def test_a_single_large_world_steps_serially_when_numba_runs_one_thread(monkeypa
     """``numba.set_num_threads(1)``: a parallel region would run on one thread and only cost its
     launch, so a large world steps serially (the same result bit for bit: the test below); with
     two threads it steps in parallel."""
-    from penalty_env.physics import runner
+    from penalty_env.physics.stepping import runner
 
     monkeypatch.setattr(runner, "thread_count", lambda: 2)
     monkeypatch.setattr(runner, "SERIAL_MAX_BALLS", 0)
@@ -337,7 +337,7 @@ def test_serial_and_parallel_list_steps_agree_bit_for_bit_and_a_batch_equals_eac
     """A large world is stepped parallel over its balls (``run_large``), or serially on one thread
     (``run_large_serial``: a small world alone, a single thread, or a batch, a share of its worlds
     per thread): one algorithm, so the same result bit for bit, through escapes and rebuilds."""
-    from penalty_env.physics import runner
+    from penalty_env.physics.stepping import runner
 
     B, n, d = 3, LARGE_WORLD_MIN_BALLS + 200, 3
     piles = [_pile(n, d, seed=20 + b) for b in range(B)]
@@ -367,3 +367,24 @@ def test_serial_and_parallel_list_steps_agree_bit_for_bit_and_a_batch_equals_eac
         for got in (*parallel, serial):
             np.testing.assert_array_equal(got[0][0], batch[0][b])
             np.testing.assert_array_equal(got[1][0], batch[1][b])
+
+
+def test_the_list_pass_block_law_compiles_to_vector_code():
+    """The frictionless list pass computes its pairs' forces in one loop per block that LLVM
+    vectorises (square roots and divisions of several pairs per instruction): a branch or a gather
+    added to ``contact.listed.block_law`` (or to the law it calls) would silently make it scalar
+    again. Its source compiled afresh as a kernel of its own, uncached, so its code can be read."""
+    import re
+
+    from numba import types
+
+    from penalty_env._jit import njit
+    from penalty_env.physics.contact.listed import block_law
+
+    fn = njit(entry=True, cache=False)(block_law.py_func)
+    fn.compile((types.int64, types.float64[:, ::1], types.float64, types.float64, types.boolean, types.int64))
+    ir = "".join(fn.inspect_llvm().values())
+    asm = "".join(fn.inspect_asm().values())
+    assert ir.count("<4 x double>") + ir.count("<2 x double>") + ir.count("<8 x double>") > 0
+    assert re.findall(r"\bv?sqrtpd\b", asm) and re.findall(r"\bv?divpd\b", asm)
+

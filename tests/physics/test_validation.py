@@ -241,9 +241,9 @@ def test_a_stale_numba_cache_index_naming_a_vanished_class_is_a_cache_miss_not_a
     (index,) = list((tmp_path / "cache").rglob("*.nbi"))
     with open(index, "rb") as f:
         version = pickle.load(f)
-    gone = type("Gone", (), {"__module__": "penalty_env.physics.geometry"})
+    gone = type("Gone", (), {"__module__": "penalty_env.physics.geometry.table"})
     gone.__qualname__ = "UnionNodeThatIsGone"
-    import penalty_env.physics.geometry as geometry
+    import penalty_env.physics.geometry.table as geometry
 
     geometry.UnionNodeThatIsGone = gone  # type: ignore[attr-defined]
     try:

@@ -188,8 +188,10 @@ def build_list(grid, xs, sm, lw, threads, g):
     skin = lw.skin
     threads = max(1, min(threads, cand.shape[0]))
     for t in prange(threads):
-        for i in range(t, n, threads):
-            cnt[i] = _list_neighbours(i, grid, xs, sm, nbr, cand[t], skin, D)
+        # (an int64 copy of t: a prange index may be unsigned, and int64 with uint64 unifies to float)
+        first = np.int64(t)
+        for i in range(first, n, threads):
+            cnt[i] = _list_neighbours(i, grid, xs, sm, nbr, cand[first], skin, D)
             # a ball that has not escaped is within skin / 2 of xref, and phi is 1-Lipschitz: a
             # clearance of a skin at the build means no terrain contact until it escapes
             near[i] = _near_rounds(i, xs, sm, skin, D)

@@ -202,6 +202,7 @@ def run_large(integ, nsteps, dt, x, v, ext, has_ext, sm, g, status, lw, threads,
     perm, nbr, cnt, near, moved = lw.perm, lw.nbr, lw.count, lw.near, lw.moved
     xref, escaped, escapes, pairs = lw.xref, lw.escaped, lw.escapes, lw.pairs
     start = grid.start[0]
+    items = grid.items
     threads = max(1, min(threads, moved.shape[0]))
     half2 = 0.25 * lw.skin * lw.skin
     for i in prange(n):
@@ -237,7 +238,7 @@ def run_large(integ, nsteps, dt, x, v, ext, has_ext, sm, g, status, lw, threads,
                 sm.inv_mass[i] = lw.tmp[i, 1]
                 perm[i] = lw.itmp[i]
                 escaped[i] = 0
-                grid.items[0, i] = i  # the grid now speaks of storage slots
+                items[0, i] = i  # the grid now speaks of storage slots
             most = build_list(grid, xs, sm, lw, threads, g)
             _shapes_near(full, lw, xs, D)
             lw.state[1] = most
