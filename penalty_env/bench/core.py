@@ -333,28 +333,18 @@ def _time_large(n: int):
     return [phases["slump"], phases["settled"]], mode
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(
-        prog="python -m penalty_env.bench core",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    ap.add_argument("--quick", action="store_true", help="smaller sizes and shorter timings (CI smoke run)")
-    ap.add_argument("--no-lammps", action="store_true", help="do not run LAMMPS on the (b) scenes (the peer)")
-    args = ap.parse_args(argv)
-    quick = args.quick
-    t_s = 0.2 if quick else 1.0
-
-    print(
-        f"penalty_env core benchmark: symplectic Euler, {numba.config.NUMBA_NUM_THREADS} threads, "
-        f"numba {numba.__version__}"
-    )
+def _batched_part(quick: bool, t_s: float) -> None:
+    """(a): 1,024 (64 with --quick) worlds of 6 balls."""
     nw = 64 if quick else 1024
     rate = bench_batched(nw, 6, t_s)
     print(f"(a) {nw} worlds x 6 balls, 3D bowl: {rate / 1e6:8.1f} M particle-substeps/s  (target >= 80 M)")
 
+
+def _large_part(quick: bool, no_lammps: bool) -> None:
+    """(b): each large world's slump and settled pile, against LAMMPS (or its logged figure), and
+    how flat the time per particle is from the smallest world to the largest."""
     sizes = (1_000, 4_000) if quick else (1_000, 10_000, 100_000)
-    peer = "skipped (--no-lammps)" if args.no_lammps else find_lammps()
+    peer = "skipped (--no-lammps)" if no_lammps else find_lammps()
     print(
         f"(b) one world packed in a bowl (grid): timed over the slump from the lattice (first {SLUMP_S:g} s "
         f"simulated), then settled (after {SLUMP_S + SETTLE_S:g} s, over {SETTLED_S:g} s or 5 M particle-steps in "
@@ -376,38 +366,7 @@ def main(argv=None) -> None:
         phases, mode = _time_large(n)
         per_particle[n] = tuple(1e9 / ph.best for ph in phases)
         for ph in phases:
-            spread = f" (median {ph.median / 1e6:5.1f} M)" if len(ph.rates) > 1 else ""
-            print(
-                f"    {n:>7,} balls {ph.label:>7}: {ph.best / 1e6:6.1f} M particle-substeps/s{spread}, "
-                f"{1e9 / ph.best:6.1f} ns per particle-step, list rebuilt every {ph.steps_per_build:5.1f} steps, "
-                f"{ph.listed:4.1f} listed pairs per ball (each pair once; {mode})"
-            )
-            one = Rates(ph.rates_1thread).best if ph.rates_1thread else None
-            if one is not None:
-                print(f"{'':>18}on 1 thread: {one / 1e6:6.1f} M (median {Rates(ph.rates_1thread).median / 1e6:5.1f} M)")
-            if isinstance(peer, str):
-                print(f"{'':>26}{ph.best / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's logged 20.6 M/s")
-                continue
-            for threads in sorted({1, numba.get_num_threads()}):
-                try:
-                    runs = [
-                        run_lammps(peer, *ph.state, threads=threads, blocks=len(ph.rates) // ph.repeats)
-                        for _ in range(ph.repeats)
-                    ]
-                except (RuntimeError, OSError, subprocess.TimeoutExpired) as exc:
-                    print(f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ''}: failed ({str(exc)[-300:]})")
-                    continue
-                run = Rates(r for each in runs for r in each.rates)
-                spread = f" (median {run.median / 1e6:5.1f} M)" if len(run.rates) > 1 else ""
-                # like for like where ours was timed on one thread too (the settled pile)
-                ours, ours_threads = (
-                    (one, 1) if threads == 1 and one is not None else (ph.best, numba.get_num_threads())
-                )
-                print(
-                    f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ' '}: {run.best / 1e6:6.1f} M "
-                    f"particle-steps/s{spread}, list rebuilt every {runs[0].steps_per_build:5.1f} steps: "
-                    f"penalty_env ({ours_threads} thread{'s' if ours_threads > 1 else ''}) {ours / run.best:5.2f}x"
-                )
+            _print_phase(n, ph, mode, peer)
     ns = sorted(per_particle)
     for k, label in enumerate(("slump", "settled")):
         print(
@@ -415,6 +374,44 @@ def main(argv=None) -> None:
             f"{per_particle[ns[-1]][k] / per_particle[ns[0]][k]:.2f}x (flat within 1.5x is the goal)"
         )
 
+
+def _print_phase(n: int, ph: _Phase, mode: str, peer) -> None:
+    """One phase of (b): ours (on every thread, and on one for the settled pile), then LAMMPS on
+    the same state (``peer``), or against its logged figure (``peer`` a sentence)."""
+    spread = f" (median {ph.median / 1e6:5.1f} M)" if len(ph.rates) > 1 else ""
+    print(
+        f"    {n:>7,} balls {ph.label:>7}: {ph.best / 1e6:6.1f} M particle-substeps/s{spread}, "
+        f"{1e9 / ph.best:6.1f} ns per particle-step, list rebuilt every {ph.steps_per_build:5.1f} steps, "
+        f"{ph.listed:4.1f} listed pairs per ball (each pair once; {mode})"
+    )
+    one = Rates(ph.rates_1thread).best if ph.rates_1thread else None
+    if one is not None:
+        print(f"{'':>18}on 1 thread: {one / 1e6:6.1f} M (median {Rates(ph.rates_1thread).median / 1e6:5.1f} M)")
+    if isinstance(peer, str):
+        print(f"{'':>26}{ph.best / LAMMPS_PARTICLE_STEPS_PER_S:5.2f}x LAMMPS's logged 20.6 M/s")
+        return
+    for threads in sorted({1, numba.get_num_threads()}):
+        try:
+            runs = [
+                run_lammps(peer, *ph.state, threads=threads, blocks=len(ph.rates) // ph.repeats)
+                for _ in range(ph.repeats)
+            ]
+        except (RuntimeError, OSError, subprocess.TimeoutExpired) as exc:
+            print(f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ''}: failed ({str(exc)[-300:]})")
+            continue
+        run = Rates(r for each in runs for r in each.rates)
+        spread = f" (median {run.median / 1e6:5.1f} M)" if len(run.rates) > 1 else ""
+        # like for like where ours was timed on one thread too (the settled pile)
+        ours, ours_threads = (one, 1) if threads == 1 and one is not None else (ph.best, numba.get_num_threads())
+        print(
+            f"{'':>18}LAMMPS, {threads} thread{'s' if threads > 1 else ' '}: {run.best / 1e6:6.1f} M "
+            f"particle-steps/s{spread}, list rebuilt every {runs[0].steps_per_build:5.1f} steps: "
+            f"penalty_env ({ours_threads} thread{'s' if ours_threads > 1 else ''}) {ours / run.best:5.2f}x"
+        )
+
+
+def _crossover_part(quick: bool) -> None:
+    """(c): the all-pairs / grid crossover."""
     rows, first = crossover((8, 32, 64, 128) if quick else (8, 16, 24, 32, 48, 64, 96, 128, 256), 0.1 if quick else 0.3)
     print("(c) balls  all-pairs M/s   grid M/s")
     for n, a, g in rows:
@@ -424,6 +421,9 @@ def main(argv=None) -> None:
         f"(neighbour list, parallel over balls, from LARGE_WORLD_MIN_BALLS = {LARGE_WORLD_MIN_BALLS})"
     )
 
+
+def _lanes_part(quick: bool) -> None:
+    """(d): the scalar / SIMD-lanes crossover."""
     rows, last = lanes_crossover(
         (4, 16, 48) if quick else (4, 8, 12, 16, 24, 32, 48), 64 if quick else 128, 0.1 if quick else 0.3
     )
@@ -432,6 +432,9 @@ def main(argv=None) -> None:
         print(f"    {n:5d}  {sc / 1e6:10.2f}  {ln / 1e6:14.2f}   {ln / sc:5.2f}x")
     print(f"    lanes faster up to {last} balls; World uses them up to LANES_MAX_BALLS = {LANES_MAX_BALLS}")
 
+
+def _terrain_part(quick: bool) -> None:
+    """(f): the cost of a ball-terrain contact per kind of shape."""
     rows, base = terrain_costs(256 if quick else 1024, 0.1 if quick else 0.3)
     print(
         f"(f) one ball resting on a shape, one world per ball (scalar path); {base:.1f} ns per ball-step without terrain"
@@ -441,6 +444,9 @@ def main(argv=None) -> None:
         print(f"    {label:<14} {ns:10.1f}   {contact:10.1f}   {ratio:10.2f}x   {100 * frac:8.0f}%")
     print("    targets: primitives within 2x a sphere's contact, a height field or a CSG of four primitives within 3x")
 
+
+def _rotation_part(quick: bool) -> None:
+    """(g): the cost of rotation."""
     rows = rotation_costs(64 if quick else 1024, 6, 0.1 if quick else 0.3)
     print("(g) (a)'s scene with friction (mu = 0.5), settled, scalar path")
     print("    case                          ns/ball-step   x no rotation")
@@ -448,10 +454,38 @@ def main(argv=None) -> None:
         print(f"    {label:<28} {ns:12.1f}   {ratio:10.2f}x")
     print("    target: rotation at most 1.5x the frictional step without it")
 
+
+def _compile_part() -> None:
+    """(e): the first-call compile time, cold and warm."""
     cold, warm = compile_times()
     print(
         f"(e) import + first step in a fresh process: cold cache {cold:.2f} s, warm cache {warm:.2f} s (target warm < 1 s)"
     )
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(
+        prog="python -m penalty_env.bench core",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    ap.add_argument("--quick", action="store_true", help="smaller sizes and shorter timings (CI smoke run)")
+    ap.add_argument("--no-lammps", action="store_true", help="do not run LAMMPS on the (b) scenes (the peer)")
+    args = ap.parse_args(argv)
+    quick = args.quick
+    t_s = 0.2 if quick else 1.0
+
+    print(
+        f"penalty_env core benchmark: symplectic Euler, {numba.config.NUMBA_NUM_THREADS} threads, "
+        f"numba {numba.__version__}"
+    )
+    _batched_part(quick, t_s)
+    _large_part(quick, args.no_lammps)
+    _crossover_part(quick)
+    _lanes_part(quick)
+    _terrain_part(quick)
+    _rotation_part(quick)
+    _compile_part()
 
 
 if __name__ == "__main__":

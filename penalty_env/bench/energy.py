@@ -43,21 +43,9 @@ def gas(frac_or_dt, B=192, n=8, steps=20_000, seed=0, energy_limit=False):
     return dt * math.sqrt(kw["ks"] / 0.5), w.energy() / e0
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(
-        prog="python -m penalty_env.bench energy",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    ap.add_argument("--quick", action="store_true", help="fewer steps and no gas (a smoke run)")
-    ap.add_argument("--out", default=None, help="folder for the CSV and PNG (default: docs/ of the repository)")
-    args = ap.parse_args(argv)
-    out = args.out or os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "docs")
-    if args.quick and args.out is None:
-        import tempfile
-
-        out = os.path.join(tempfile.gettempdir(), "penalty_env_bench_quick")
-    os.makedirs(out, exist_ok=True)
+def _collision_rows(quick: bool) -> list[dict]:
+    """(a): the energy change per elastic collision of each integrator over its omega0 dt grid,
+    beside the model; prints a sample of each and the largest difference."""
     rows = []
     print(
         f"(a) mean relative energy gain per elastic collision, over {PHASES} phases (budget "
@@ -66,7 +54,7 @@ def main(argv=None) -> None:
     worst_mismatch = 0.0
     for integ in INTEGRATORS:
         top = min(theory.guard_omega_dt(integ, 0.0), 3.0)
-        grid = np.exp(np.linspace(math.log(0.05), math.log(top), 12 if args.quick else 40))
+        grid = np.exp(np.linspace(math.log(0.05), math.log(top), 12 if quick else 40))
         limit = theory.energy_omega_dt(integ, 0.0)
         print(
             f"  {integ}: energy limit omega0 dt = {limit:.4g} (stability guard {theory.guard_omega_dt(integ, 0.0):.4g})"
@@ -84,24 +72,29 @@ def main(argv=None) -> None:
                 f"    omega0 dt {r['omega_dt']:.3f}: {r['mean_gain']:+.3e} (spread {r['spread']:.2e}; model {r['model']:+.3e})"
             )
     print(f"  largest difference between the World and the model: {worst_mismatch:.2e}")
-    with open(os.path.join(out, "energy_per_collision.csv"), "w", newline="") as f:
-        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
-        wr.writeheader()
-        wr.writerows(rows)
-    if not args.quick:
-        print("(b) elastic gas, 192 worlds x 8 balls, 20,000 steps: energy ratio over the worlds")
-        for label, frac, lim in (
-            ("guard", 1.0, False),
-            ("guard / 2", 0.5, False),
-            ("guard / 4", 0.25, False),
-            ("energy limit", None, True),
-        ):
-            od, ratio = gas(frac, energy_limit=lim)
-            print(
-                f"  {label:13s} (pair omega0 dt {od:.3f}): median {np.median(ratio):.4f}, mean {ratio.mean():.4f}, "
-                f"90th percentile {np.percentile(ratio, 90):.4f}, worst {ratio.max():.4g}, "
-                f"{np.mean(ratio > 10):.0%} above 10x"
-            )
+    return rows
+
+
+def _print_gas() -> None:
+    """(b): the elastic gas's energy ratio over the worlds at fractions of the guard's step and at
+    the energy limit."""
+    print("(b) elastic gas, 192 worlds x 8 balls, 20,000 steps: energy ratio over the worlds")
+    for label, frac, lim in (
+        ("guard", 1.0, False),
+        ("guard / 2", 0.5, False),
+        ("guard / 4", 0.25, False),
+        ("energy limit", None, True),
+    ):
+        od, ratio = gas(frac, energy_limit=lim)
+        print(
+            f"  {label:13s} (pair omega0 dt {od:.3f}): median {np.median(ratio):.4f}, mean {ratio.mean():.4f}, "
+            f"90th percentile {np.percentile(ratio, 90):.4f}, worst {ratio.max():.4g}, "
+            f"{np.mean(ratio > 10):.0%} above 10x"
+        )
+
+
+def _plot(rows: list[dict], out: str) -> None:
+    """The chart of (a) (none, said so, without matplotlib)."""
     try:
         import matplotlib
 
@@ -144,6 +137,31 @@ def main(argv=None) -> None:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     print("wrote", path)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(
+        prog="python -m penalty_env.bench energy",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    ap.add_argument("--quick", action="store_true", help="fewer steps and no gas (a smoke run)")
+    ap.add_argument("--out", default=None, help="folder for the CSV and PNG (default: docs/ of the repository)")
+    args = ap.parse_args(argv)
+    out = args.out or os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "docs")
+    if args.quick and args.out is None:
+        import tempfile
+
+        out = os.path.join(tempfile.gettempdir(), "penalty_env_bench_quick")
+    os.makedirs(out, exist_ok=True)
+    rows = _collision_rows(args.quick)
+    with open(os.path.join(out, "energy_per_collision.csv"), "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
+        wr.writeheader()
+        wr.writerows(rows)
+    if not args.quick:
+        _print_gas()
+    _plot(rows, out)
 
 
 if __name__ == "__main__":

@@ -154,21 +154,14 @@ def _installed(env_id: str) -> bool:
         return False
 
 
-def main(argv=None) -> dict[str, float]:
-    parser = argparse.ArgumentParser(prog="python -m penalty_env.bench env", description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="short windows (a smoke run, noisy figures)")
-    parser.add_argument("--seconds", type=float, default=None, help="length of one timed window")
-    args = parser.parse_args(argv)
-    seconds = args.seconds or (0.1 if args.quick else 1.0)
+_Case = tuple[str, Callable[[], Callable[[int], None]], int, str]  # (label, build, per call, unit)
 
-    print(
-        f"PenaltyBalls env benchmark: {platform.processor() or platform.machine()}, "
-        f"{os.cpu_count()} CPUs, numba threads {numba.config.NUMBA_NUM_THREADS}, best of 3 x {seconds:g} s"
-    )
-    scene = gym.make("PenaltyBalls-v0").unwrapped.scene
-    print(f"PenaltyBalls-v0 physics: {scene.describe()}")
-    rates: dict[str, float] = {}
-    cases: list[tuple[str, Callable[[], Callable[[int], None]], int, str]] = [
+
+def _cases() -> list[_Case]:
+    """Every timed case, in the order they are printed: CartPole (and Pusher when MuJoCo is
+    installed), the PenaltyBalls ids single and vectorised, v1 beside v0, sand, SB3 when installed,
+    and rendering."""
+    cases: list[_Case] = [
         ("make CartPole-v1", lambda: _single("CartPole-v1"), 1, "steps/s"),
     ]
     if _installed("Pusher-v5"):
@@ -231,14 +224,20 @@ def main(argv=None) -> dict[str, float]:
         ("rgb_array 256x256 PenaltyBalls2D-v0", lambda: _render("PenaltyBalls2D-v0"), 1, "frames/s"),
         ("rgb_array 256x256 PenaltyBallsSand-v0", lambda: _render("PenaltyBallsSand-v0"), 1, "frames/s"),
     ]
+    return cases
 
-    rates.update(_best_rates(cases, seconds))
+
+def _print_rates(cases: list[_Case], rates: dict[str, float]) -> None:
+    """The table of every case's rate and time per call."""
     width = max(len(c[0]) for c in cases)
     print(f"\n{'':<{width}}  {'rate':>14}  {'us per call':>11}")
     for label, _, per_call, unit in cases:
         rate = rates[label]
         print(f"{label:<{width}}  {rate:>14,.0f}  {1e6 * per_call / rate:>11.2f}  {unit}")
 
+
+def _print_targets(rates: dict[str, float]) -> None:
+    """Each target's ratio or figure, ok or MISSED."""
     print("\ntargets")
     for label, num, den, threshold in TARGETS:
         if num not in rates or (den is not None and den not in rates):
@@ -257,6 +256,27 @@ def main(argv=None) -> dict[str, float]:
     for env_id in ("PenaltyBallsSand-v0", "PenaltyBallsSand2D-v0", "PenaltyBallsSand-v1"):
         ms = 1e3 / rates[f"reset {env_id}"]
         print(f"  {'reset ' + env_id + ', ms':<42} {ms:>14.2f}   (target <= 50) {'ok' if ms <= 50 else 'MISSED'}")
+
+
+def main(argv=None) -> dict[str, float]:
+    parser = argparse.ArgumentParser(prog="python -m penalty_env.bench env", description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="short windows (a smoke run, noisy figures)")
+    parser.add_argument("--seconds", type=float, default=None, help="length of one timed window")
+    args = parser.parse_args(argv)
+    seconds = args.seconds or (0.1 if args.quick else 1.0)
+
+    print(
+        f"PenaltyBalls env benchmark: {platform.processor() or platform.machine()}, "
+        f"{os.cpu_count()} CPUs, numba threads {numba.config.NUMBA_NUM_THREADS}, best of 3 x {seconds:g} s"
+    )
+    scene = gym.make("PenaltyBalls-v0").unwrapped.scene
+    print(f"PenaltyBalls-v0 physics: {scene.describe()}")
+    rates: dict[str, float] = {}
+    cases = _cases()
+
+    rates.update(_best_rates(cases, seconds))
+    _print_rates(cases, rates)
+    _print_targets(rates)
     return rates
 
 

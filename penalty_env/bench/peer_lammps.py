@@ -21,7 +21,7 @@ on the sliding displacement each contact keeps, a dashpot m_eff gamma_t v_t, so 
 m_eff as for gamma_n, the cap xmu |f_n|, lever arms the radii), the wall the same law in ``fix
 wall/gran/region granular`` form (hooke, damping mass_velocity, tangential linear_history; not
 the wall's classic ``hooke/history``, whose spring this LAMMPS scales by the contact radius, see
-``run_lammps``), integrated by ``fix nve/sphere`` (I = 2/5 m r^2). ``series_every`` records the
+``_contact_styles``), integrated by ``fix nve/sphere`` (I = 2/5 m r^2). ``series_every`` records the
 centre of mass and the rotational and translational kinetic energies every that many steps
 (``fix ave/time`` into a file).
 """
@@ -180,6 +180,30 @@ def run_lammps(
     kt, kd_t, mu, series_every = float(kt), float(kd_t), float(mu), int(series_every)
     radii = np.asarray(radii, dtype=np.float64)
     masses = np.asarray(masses, dtype=np.float64)
+    rotating, omega = _checked(x, masses, kd, kt, kd_t, mu, omega)
+    c = [float(ck) for ck in bowl_center]
+    m = float(masses[0])
+    pad = 2.0 * float(radii.max())
+    lo = [ck - bowl_radius - pad for ck in c]
+    hi = [ck + bowl_radius + pad for ck in c]
+    styles = _contact_styles(rotating, ks, kd, kt, kd_t, mu, m)
+    per_block = -(-int(steps) // blocks)
+    script = _script(c, bowl_radius, styles, gravity, skin, dt, steps, per_block, blocks, series_every, final_state)
+    res, final, series = _execute(
+        lammps, script, x, v, radii, masses, lo, hi, omega, threads, timeout, final_state, series_every
+    )
+    rates = _block_rates(res, blocks, x.shape[0])
+    builds = _BUILDS.search(res.stdout)  # printed after the first block only ("post no" after it)
+    every = per_block / max(int(builds.group(1)), 1) if builds else float("nan")
+    run = LammpsRun(tuple(rates), threads, per_block * blocks, every, series=series)
+    if final is None:
+        return run
+    return replace(run, x=final[:, 1:4], v=final[:, 4:7], omega=final[:, 7:10])
+
+
+def _checked(x, masses, kd, kt, kd_t, mu, omega):
+    """Refuse what LAMMPS cannot run as the World does (ValueError); returns whether the balls
+    turn, and ``omega`` as an array (or None)."""
     if x.ndim != 2 or x.shape[1] != 3:
         raise ValueError(f"x must be (n, 3) (LAMMPS granular runs in 3D), got {x.shape}")
     if not np.all(masses == masses[0]):
@@ -197,13 +221,12 @@ def run_lammps(
         omega = np.asarray(omega, dtype=np.float64)
         if omega.shape != x.shape:
             raise ValueError(f"omega must be {x.shape}, got {omega.shape}")
-    c = [float(ck) for ck in bowl_center]
-    m = float(masses[0])
-    pad = 2.0 * float(radii.max())
-    lo = [ck - bowl_radius - pad for ck in c]
-    hi = [ck + bowl_radius + pad for ck in c]
-    gmag = float(np.linalg.norm(gravity))
-    gdir = [float(gk) / gmag for gk in gravity] if gmag > 0 else [0.0, 0.0, -1.0]
+    return rotating, omega
+
+
+def _contact_styles(rotating, ks, kd, kt, kd_t, mu, m):
+    """LAMMPS's pair style, wall style and integrator for the contact law, frictionless or with
+    friction (the balls turn)."""
     # Kn Kt gamma_n gamma_t xmu dampflag; m_eff = m / 2 between two balls, m at the wall
     if rotating:
         damp = 1 if kd_t > 0.0 else 0
@@ -223,6 +246,16 @@ def run_lammps(
         pair = f"gran/hooke {ks!r} 0.0 {kd / (m / 2.0)!r} 0.0 0.0 0"
         wall = f"hooke {ks!r} 0.0 {kd / m!r} 0.0 0.0 0"
         integrate = "nve"
+    return pair, wall, integrate
+
+
+def _script(c, bowl_radius, styles, gravity, skin, dt, steps, per_block, blocks, series_every, final_state):
+    """The input script: the state from ``state.data``, the bowl, the contact law (``styles``),
+    gravity and the neighbour list, ``blocks`` runs of ``per_block`` steps, and the series and the
+    final state when asked for."""
+    pair, wall, integrate = styles
+    gmag = float(np.linalg.norm(gravity))
+    gdir = [float(gk) / gmag for gk in gravity] if gmag > 0 else [0.0, 0.0, -1.0]
     script = f"""
 units si
 atom_style sphere
@@ -249,12 +282,18 @@ variable yc equal xcm(all,y)
 variable zc equal xcm(all,z)
 fix series all ave/time {series_every} 1 {series_every} v_xc v_yc v_zc c_erot c_ke file series.txt format " %.17g"
 """
-    per_block = -(-int(steps) // blocks)
     script += "".join(f"run {per_block}{' pre no post no' if b else ''}\n" for b in range(blocks))
     if final_state:
         script += (
             "write_dump all custom final.txt id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g\n"
         )
+    return script
+
+
+def _execute(lammps, script, x, v, radii, masses, lo, hi, omega, threads, timeout, final_state, series_every):
+    """Run the script on the state in a temporary folder, on ``threads`` OpenMP threads: LAMMPS's
+    completed process, and the final state and the series it wrote (None where not asked for, or
+    where it failed)."""
     with tempfile.TemporaryDirectory(prefix="penalty_env-lammps-") as tmp:
         _data_file(os.path.join(tmp, "state.data"), x, v, radii, masses, lo, hi, omega)
         with open(os.path.join(tmp, "in.bowl"), "w") as f:
@@ -269,17 +308,18 @@ fix series all ave/time {series_every} 1 {series_every} v_xc v_yc v_zc c_erot c_
             if series_every > 0:
                 rows = np.loadtxt(os.path.join(tmp, "series.txt"), comments="#", ndmin=2)
                 series = Series(rows[:, 0].astype(np.int64), rows[:, 1:4], rows[:, 4], rows[:, 5])
+    return res, final, series
+
+
+def _block_rates(res, blocks, n):
+    """Particle-steps per second of each block, from LAMMPS's "Loop time" lines (RuntimeError if
+    it failed, or lost balls)."""
     loops = _LOOP.findall(res.stdout)
     if res.returncode != 0 or len(loops) != blocks:
         raise RuntimeError(f"LAMMPS failed (exit {res.returncode}): {(res.stdout + res.stderr)[-1500:]}")
     rates = []
     for seconds, _nprocs, nsteps, natoms in loops:
-        if int(natoms) != x.shape[0]:
-            raise RuntimeError(f"LAMMPS lost balls: {natoms} of {x.shape[0]} left")
+        if int(natoms) != n:
+            raise RuntimeError(f"LAMMPS lost balls: {natoms} of {n} left")
         rates.append(int(natoms) * int(nsteps) / float(seconds))
-    builds = _BUILDS.search(res.stdout)  # printed after the first block only ("post no" after it)
-    every = per_block / max(int(builds.group(1)), 1) if builds else float("nan")
-    run = LammpsRun(tuple(rates), threads, per_block * blocks, every, series=series)
-    if final is None:
-        return run
-    return replace(run, x=final[:, 1:4], v=final[:, 4:7], omega=final[:, 7:10])
+    return rates

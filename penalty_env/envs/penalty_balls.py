@@ -1,26 +1,23 @@
 """PenaltyBalls: push a ball to a goal in a spherical bowl, on the penalty-contact physics core.
 
-``PenaltyBallsEnv`` is the Gymnasium env; ``PenaltyBallsVectorEnv`` is its native vector twin
-(all worlds stepped in one Numba call). Both drive one :class:`~penalty_env.envs.scene.PenaltyBallsScene`,
-as does the SB3 adapter (:mod:`penalty_env.sb3`), so all three produce the same episodes.
+``PenaltyBallsEnv`` is the Gymnasium env; ``PenaltyBallsVectorEnv`` (:mod:`.vector`) is its native
+vector twin (all worlds stepped in one Numba call). Both drive one
+:class:`~penalty_env.envs.scene.PenaltyBallsScene`, as does the SB3 adapter (:mod:`penalty_env.sb3`),
+so all three produce the same episodes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import error, logger
-from gymnasium.utils import seeding
-from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
 
-from .. import _validate as V
-from . import kernel as KE
+from .params import CHOICE_PARAMETERS, PARAMETERS, check_options, check_seed, coerce_action, render_fps
 from .render import HumanWindow, Renderer
-from .scene import CHOICE_PARAMETERS, PARAMETERS, PenaltyBallsScene, coerce_action, render_fps
+from .scene import PenaltyBallsScene
+from .vector import PenaltyBallsVectorEnv
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS", "SAND_V1_EPISODE_STEPS"]
 
@@ -35,30 +32,6 @@ def _parameters_table() -> str:
     for name, (default, lo, hi, meaning) in PARAMETERS.items():
         rows.append(f"    | `{name}` | {default} | [{lo}, {hi}] | {meaning} |")
     return "\n".join(rows)
-
-
-def _check_options(options: Any, allowed: tuple[str, ...] = ()) -> dict[str, Any]:
-    """``options`` as a dict: None or a mapping with string keys, each one of ``allowed``."""
-    if options is None:
-        return {}
-    if not isinstance(options, Mapping):
-        raise V.ArgumentTypeError(
-            f"options must be None or a dict, got {V.describe(options)} ({type(options).__name__})"
-        )
-    unknown = [k for k in options if k not in allowed]
-    if unknown:
-        raise ValueError(
-            f"options has unknown key(s) {', '.join(map(repr, unknown))}; PenaltyBalls accepts "
-            f"{', '.join(map(repr, allowed)) or 'none'}"
-        )
-    return dict(options)
-
-
-def _check_seed(seed: Any) -> int | None:
-    """A seed: None or an int >= 0 (numpy ints too, bools not)."""
-    if seed is None:
-        return None
-    return V.integer("seed", seed, 0, None)
 
 
 class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -327,8 +300,8 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        seed = _check_seed(seed)
-        _check_options(options)
+        seed = check_seed(seed)
+        check_options(options)
         super().reset(seed=seed)
         self.scene.reset_worlds([0], [self.np_random])
         self._needs_reset = False
@@ -362,189 +335,3 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
 
 
 PenaltyBallsEnv.__doc__ = (PenaltyBallsEnv.__doc__ or "").replace("{parameters}", _parameters_table().strip())
-
-
-class PenaltyBallsVectorEnv(VectorEnv):
-    """N PenaltyBalls worlds stepped together: one Numba call per step (threads for large N).
-
-    The same task, spaces and keyword arguments as :class:`PenaltyBallsEnv`, plus
-    ``num_envs``, ``max_episode_steps`` (the vector env truncates episodes itself) and
-    ``autoreset_mode`` (default ``NEXT_STEP``, Gymnasium's default; ``SAME_STEP`` and
-    ``DISABLED`` are supported as Gymnasium's ``SyncVectorEnv`` implements them). World i draws
-    its starts from its own generator, seeded ``seed + i`` by ``reset(seed=seed)``, so the
-    episodes are exactly those of N single envs seeded ``seed + i`` (and of a ``SyncVectorEnv``
-    of them, infos included). ``render()`` returns one frame per world.
-    """
-
-    metadata = {
-        "render_modes": ["rgb_array"],
-        "render_fps": render_fps(PARAMETERS["control_period"][0]),
-        "autoreset_mode": AutoresetMode.NEXT_STEP,
-    }
-
-    def __init__(
-        self,
-        num_envs: int = 1,
-        dim: int = 3,
-        max_episode_steps: int = MAX_EPISODE_STEPS,
-        render_mode: str | None = None,
-        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-        **kwargs: Any,
-    ) -> None:
-        if (
-            isinstance(max_episode_steps, bool)
-            or not isinstance(max_episode_steps, (int, np.integer))
-            or max_episode_steps < 1
-        ):
-            raise ValueError(f"max_episode_steps must be an int >= 1, got {max_episode_steps!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
-        try:
-            autoreset_mode = AutoresetMode(autoreset_mode)
-        except ValueError:
-            raise ValueError(
-                f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}"
-            ) from None
-        self.scene = PenaltyBallsScene(
-            V.integer("num_envs", num_envs, 1), dim=dim, owner="PenaltyBallsVectorEnv.__init__", **kwargs
-        )
-        self.num_envs = self.scene.n_worlds
-        self.dim = self.scene.dim
-        self.max_episode_steps = int(max_episode_steps)
-        self.render_mode = render_mode
-        self.autoreset_mode = autoreset_mode
-        self.metadata = dict(
-            self.metadata, render_fps=render_fps(self.scene.control_period), autoreset_mode=autoreset_mode
-        )
-        self.single_action_space = self.scene.action_space
-        self.single_observation_space = self.scene.observation_space
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        N = self.num_envs
-        self._rngs: list[np.random.Generator | None] = [None] * N
-        self._steps = np.zeros(N, dtype=np.int64)
-        self._done = np.zeros(N, dtype=np.bool_)  # episode over: the world awaits its reset
-        self._started = False
-        self._renderer: Renderer | None = None
-        self._ones = np.ones(N, dtype=np.bool_)
-        self._never = np.zeros(N, dtype=np.bool_)
-
-    # ------------------------------------------------------------------ Gymnasium API
-    def reset(
-        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        N = self.num_envs
-        options = _check_options(options, ("reset_mask",))
-        if seed is None or isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
-            seed = _check_seed(seed)
-            seeds: list[int | None] = [None] * N if seed is None else [seed + i for i in range(N)]
-        elif isinstance(seed, (list, tuple, np.ndarray)):
-            seeds = [_check_seed(s) for s in seed]
-            if len(seeds) != N:
-                raise ValueError(f"seed must be None, an int or a list of {N} seeds (one per world), got {len(seeds)}")
-        else:
-            raise V.ArgumentTypeError(
-                f"seed must be None, an int >= 0 or a list of {N} of them, got {V.describe(seed)}"
-            )
-        mask = options.pop("reset_mask", None)
-        if seed is None or isinstance(seed, int):
-            super().reset(seed=seed)
-        if mask is None:
-            mask = self._ones
-        elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (N,) and mask.any()):
-            raise ValueError(
-                f"options['reset_mask'] must be a bool array of shape ({N},) with a True value, got {mask!r}"
-            )
-        idx = np.flatnonzero(mask)
-        for i in idx:
-            if seeds[i] is not None or self._rngs[i] is None:
-                self._rngs[i] = seeding.np_random(seeds[i])[0]
-        self.scene.reset_worlds(idx, [self._rngs[i] for i in idx])
-        self._steps[idx] = 0
-        self._done[idx] = False
-        self._started = True
-        return self.scene.obs.copy(), self._infos(mask)
-
-    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        if not self._started:
-            raise error.ResetNeeded("Cannot call PenaltyBallsVectorEnv.step() before reset()")
-        scene = self.scene
-        shape = (self.num_envs, scene.action_size)
-        if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.kind != "f":
-            actions = coerce_action(actions, shape)
-        mode = self.autoreset_mode
-        resetting = self._done if mode == AutoresetMode.NEXT_STEP else None
-        if mode == AutoresetMode.DISABLED and self._done.any():
-            raise RuntimeError(
-                f"world(s) {np.flatnonzero(self._done)[:10].tolist()} ended their episode; with "
-                f"autoreset_mode DISABLED, reset them (reset(options={{'reset_mask': mask}})) before stepping"
-            )
-        scene.actions[:] = actions
-        b = KE.first_bad_action(scene.actions, self._done if resetting is not None else self._never)
-        if b >= 0:  # refuse before any world moves or resets
-            raise ValueError(f"the action of world {b} contains NaN or inf: {scene.actions[b].tolist()}")
-        if resetting is not None and resetting.any():
-            idx = np.flatnonzero(resetting)
-            scene.reset_worlds(idx, [self._rngs[i] for i in idx], observe=False)  # stepped as "just reset"
-            scene.step()
-            scene.stepping[idx] = True
-            self._steps[idx] = -1  # += 1 below
-        else:
-            scene.step()
-        self._steps += 1
-        terminated = scene.buffers.success.copy()
-        truncated = self._steps >= self.max_episode_steps
-        rewards = scene.buffers.reward.copy()
-        done = terminated | truncated
-        if mode == AutoresetMode.SAME_STEP and done.any():
-            idx = np.flatnonzero(done)
-            final_obs = np.full(self.num_envs, None, dtype=object)
-            for i in idx:
-                final_obs[i] = scene.obs[i].copy()
-            final_info = self._infos(done)
-            scene.reset_worlds(idx, [self._rngs[i] for i in idx])
-            self._steps[idx] = 0
-            infos = self._infos(self._ones)
-            infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
-            infos["final_info"], infos["_final_info"] = final_info, done.copy()
-            self._done[:] = False
-        else:
-            infos = self._infos(self._ones)
-            self._done[:] = done
-        return scene.obs.copy(), rewards, terminated, truncated, infos
-
-    def render(self) -> tuple[np.ndarray, ...] | None:
-        if self.render_mode is None:
-            logger.warn('You are calling render without a render mode; pass render_mode="rgb_array" to make_vec.')
-            return None
-        if self._renderer is None:
-            p = self.scene.params
-            self._renderer = Renderer(self.scene, p["render_width"], p["render_height"])
-        return tuple(self._renderer.frame(b) for b in range(self.num_envs))
-
-    # ------------------------------------------------------------------ helpers
-    def _infos(self, mask: np.ndarray) -> dict[str, Any]:
-        """Gymnasium's vector info dict for the worlds in ``mask``: one array per key and the
-        ``_key`` mask, as ``SyncVectorEnv`` builds it from the single envs' infos. The float
-        arrays are rows of one fresh block: a few allocations per step, not one per key and world."""
-        buf = self.scene.buffers
-        values = buf.info.copy()  # (keys - 1, N), in INFO_KEYS order
-        success = buf.success.copy()
-        n_keys = len(KE.INFO_KEYS)
-        if mask is self._ones:
-            masks = np.ones((n_keys, self.num_envs), dtype=np.bool_)
-        else:
-            values[:, ~mask] = 0.0
-            success[~mask] = False
-            masks = np.empty((n_keys, self.num_envs), dtype=np.bool_)
-            masks[:] = mask
-        infos: dict[str, Any] = {}
-        for j, key in enumerate(KE.INFO_KEYS[:-1]):
-            infos[key] = values[j]
-            infos["_" + key] = masks[j]
-        infos["is_success"] = success
-        infos["_is_success"] = masks[-1]
-        return infos
-
-    def __repr__(self) -> str:
-        return f"PenaltyBallsVectorEnv({self.spec.id if self.spec else f'{self.dim}D'}, num_envs={self.num_envs})"

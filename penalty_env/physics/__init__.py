@@ -22,7 +22,6 @@ Layout (each folder one concern; an import never points up this table):
 """
 
 from . import theory
-from .stepping import events, lanes
 from .geometry import (
     SDF,
     Bowl,
@@ -43,6 +42,7 @@ from .geometry import (
 )
 from .geometry.implicit import ImplicitOverlap, implicit_overlap
 from .model import Control, Model, State
+from .stepping import events, lanes
 from .world import EnergyDriftWarning, Motor, StartOverlapWarning, World
 
 __all__ = [

@@ -20,10 +20,10 @@ location) that meets the accuracy, from the *measured* error models of the accur
   step resolves the *shortest* contact the scene can form (the lightest pair) and respects the
   World's stability guard.
 
-The error models are package data (``penalty_env/physics/data/error_models.json``), read at import;
-``python -m penalty_env.bench accuracy --fit`` measures them again and writes that file (into the
-working tree, or where ``--models`` says; never into an installed package), and
-:func:`load_error_models` reads another one.
+The error models (:mod:`.error_models`, re-exported here) are package data
+(``penalty_env/physics/data/error_models.json``), read at import; ``python -m penalty_env.bench
+accuracy --fit`` measures them again and writes that file (into the working tree, or where
+``--models`` says; never into an installed package), and :func:`load_error_models` reads another.
 
 The exact solution of one contact (:func:`.theory.contact_response` and its companions) is the
 oracle of the models; it lives in :mod:`.theory` and is re-exported here.
@@ -31,9 +31,7 @@ oracle of the models; it lives in :mod:`.theory` and is re-exported here.
 
 from __future__ import annotations
 
-import json
 import math
-import os
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -42,6 +40,19 @@ import numpy as np
 
 from .. import _validate as V
 from . import theory
+from .error_models import (
+    COST_PER_STEP,
+    ERROR_MODELS,
+    EVENT_EXTRA_EVALS,
+    METRICS,
+    MODELS_PATH,
+    SAFETY,
+    config_cost,
+    load_error_models,
+    predicted_error,
+)
+from .error_models import _model_key as _model_key  # re-exported (the accuracy bench's tests)
+from .error_models import _steps_needed as _steps_needed
 from .theory import (
     DAMPING_MODES,
     ContactResponse,
@@ -68,134 +79,6 @@ __all__ = [
     "MODELS_PATH",
     "SAFETY",
 ]
-
-# --------------------------------------------------------------------------------------------
-# Measured error models and costs (package data, written by ``bench accuracy --fit``)
-# --------------------------------------------------------------------------------------------
-MODELS_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "error_models.json")
-ERROR_MODELS: dict = {}
-COST_PER_STEP: dict = {}
-EVENT_EXTRA_EVALS: dict = {}
-MODEL_SOURCE = ""
-
-
-def load_error_models(path: str = MODELS_PATH) -> None:
-    """Make the error models and costs in ``path`` (the JSON that ``bench accuracy --fit`` writes)
-    the ones :func:`configure` uses."""
-    global MODEL_SOURCE
-    with open(path) as f:
-        data: dict[str, Any] = json.load(f)
-    ERROR_MODELS.clear()
-    ERROR_MODELS.update(data["error_models"])
-    COST_PER_STEP.clear()
-    COST_PER_STEP.update(data["cost_per_step"])
-    EVENT_EXTRA_EVALS.clear()
-    EVENT_EXTRA_EVALS.update(data["event_extra_evals"])
-    MODEL_SOURCE = data.get("source", "")
-
-
-load_error_models()
-
-# configure() asks for SAFETY x the steps per contact that the fitted model says meet the tolerance
-# (the fit is an upper envelope of the measured worst cases; this covers phases between samples)
-SAFETY = 1.15
-METRICS = ("restitution",)  # the accuracy tolerance; the peak overlap is held by ks (see configure)
-
-
-def _model_key(integrator: str, events: bool, damping: str, metric: str, zeta: float) -> str:
-    return f"{integrator}|{'events' if events else 'plain'}|{damping}|{metric}|{zeta:g}"
-
-
-def _models_at(integrator: str, events: bool, damping: str, metric: str, zeta: float) -> list[tuple[float, dict]]:
-    """[(zeta_k, model)] at the measured zetas that bracket ``zeta`` (one or two)."""
-    zetas = sorted(
-        {
-            float(k.split("|")[4])
-            for k in ERROR_MODELS
-            if k.startswith(f"{integrator}|{'events' if events else 'plain'}|{damping}|{metric}|")
-        }
-    )
-    if not zetas:
-        return []
-    if zeta > zetas[-1] * (1.0 + 1e-9):
-        return []  # beyond the measured damping ratios: errors grow faster than linearly, no model
-    if zeta >= zetas[-1]:
-        chosen = [zetas[-1]]
-    else:
-        above = next(z for z in zetas if z >= zeta)
-        below = max((z for z in zetas if z <= zeta), default=above)
-        chosen = sorted({below, above})
-    return [(z, ERROR_MODELS[_model_key(integrator, events, damping, metric, z)]) for z in chosen]
-
-
-def _model_error(mdl: dict, spc: float) -> float:
-    """One fitted model at ``spc`` steps per contact: the measured worst cases (a non-increasing
-    envelope) interpolated in log-log inside the sweep, the tail's C spc^-p beyond it (up to 4x),
-    inf below the first usable point."""
-    if spc < mdl["spc_min"] or spc > 4.0 * mdl["spc_max"]:
-        return math.inf
-    pts = mdl["pts"]
-    if spc >= pts[-1][0]:
-        return max(min(mdl["C"] * spc ** (-mdl["p"]), pts[-1][1]), mdl["floor"])
-    for (s0, e0), (s1, e1) in zip(pts[:-1], pts[1:]):
-        if s0 <= spc <= s1:
-            w = math.log(spc / s0) / math.log(s1 / s0)
-            return max(math.exp((1.0 - w) * math.log(e0) + w * math.log(e1)), mdl["floor"])
-    return max(pts[0][1], mdl["floor"])
-
-
-def predicted_error(
-    integrator: str, events: bool, damping: str, zeta: float, steps_per_contact: float, metric: str = "restitution"
-) -> float:
-    """Worst-case relative error predicted by the fitted models, interpolated linearly in zeta
-    between the two measured zetas around it (errors grow about linearly with the dashpot's jump
-    2 zeta omega0 v); inf where no model covers the point (unstable, or outside the fit)."""
-    models = _models_at(integrator, events, damping, metric, zeta)
-    if not models:
-        return math.inf
-    errs = []
-    for _, mdl in models:
-        err = _model_error(mdl, steps_per_contact)
-        if not math.isfinite(err):
-            return math.inf
-        errs.append(err)
-    if len(errs) == 1:
-        return errs[0]
-    (z0, _), (z1, _) = models
-    w = min(max((zeta - z0) / (z1 - z0), 0.0), 1.0)
-    return (1.0 - w) * errs[0] + w * errs[1]
-
-
-def _steps_needed(integrator: str, events: bool, damping: str, zeta: float, tol: float, metric: str) -> float:
-    """Smallest steps per contact with predicted error <= tol (inf if none in the models' range)."""
-    models = _models_at(integrator, events, damping, metric, zeta)
-    if not models:
-        return math.inf
-    lo = max(m["spc_min"] for _, m in models)
-    hi = min(m["spc_max"] for _, m in models) * 4.0
-
-    def err(spc: float) -> float:
-        return predicted_error(integrator, events, damping, zeta, spc, metric)
-
-    if err(hi) > tol:
-        return math.inf
-    if err(lo) <= tol:
-        return lo
-    for _ in range(60):  # the models fall monotonically with the steps per contact
-        mid = math.sqrt(lo * hi)
-        if err(mid) > tol:
-            lo = mid
-        else:
-            hi = mid
-    return hi
-
-
-def config_cost(integrator: str, events: bool, steps_per_contact: float) -> float:
-    """Force-evaluation equivalents per contact duration of one isolated contact."""
-    cost = COST_PER_STEP[integrator] * steps_per_contact
-    if events:
-        cost += EVENT_EXTRA_EVALS.get(integrator, math.inf)
-    return cost
 
 
 @dataclass
@@ -287,6 +170,87 @@ def configure(
         A :class:`ContactConfig`. Raises ValueError when no integrator in the measured models meets
         the accuracy (tighter than the models' floors).
     """
+    m, r = _checked(
+        masses, radii, max_impact_speed, penetration, accuracy, damping, terrain, events, integrators, max_dt, gravity
+    )
+    if energy_budget is not None:
+        V.positive("energy_budget", energy_budget)
+    if not ERROR_MODELS:
+        raise RuntimeError("no measured error models: run python -m penalty_env.bench accuracy --fit")
+    v = float(max_impact_speed)
+    delta_tol = float(penetration) * float(r.min())
+    ks, kd, ks_t, kd_t, contacts, zetas, zeta_ref = _contacts(m, v, delta_tol, restitution, damping, terrain, max_force)
+    t_cs = [theory.contact_time(k, c, me) for k, c, me in contacts]
+    options = _options(integrators, events, damping, accuracy, contacts, zetas, t_cs, max_dt, energy_budget)
+    if not options:
+        raise ValueError(
+            f"no measured integrator meets accuracy {accuracy:g} on restitution at zeta {zeta_ref:.3g} "
+            f"({damping}); loosen the tolerance"
+        )
+    options.sort(key=lambda o: o[0])
+    springs = (ks, kd, ks_t, kd_t)
+    return _chosen(options, springs, contacts, zetas, zeta_ref, t_cs, v, delta_tol, gravity, damping)
+
+
+def _chosen(
+    options: list,
+    springs: tuple[float, float, float, float],
+    contacts: list,
+    zetas: list,
+    zeta_ref: float,
+    t_cs: list,
+    v: float,
+    delta_tol: float,
+    gravity: float,
+    damping: str,
+) -> ContactConfig:
+    """The cheapest option (``options`` sorted by cost), its predicted errors, and the springs
+    stiffened (dt shortened) until its peak overlap meets the penetration tolerance."""
+    ks, kd, ks_t, kd_t = springs
+    t_c_min = min(t_cs)
+    cost, integ, ev, spc, dt = options[0]
+    pred = {}
+    for mt in METRICS + ("peak_overlap",):
+        pred[mt] = max(predicted_error(integ, ev, damping, z, tc / dt, mt) for z, tc in zip(zetas, t_cs))
+    scale = _penetration_scale(integ, ev, damping, zetas, t_cs, dt, contacts, v, delta_tol, gravity)
+    ks, ks_t, kd, kd_t = ks * scale**2, ks_t * scale**2, kd * scale, kd_t * scale
+    dt /= scale
+    t_c_min /= scale
+    return ContactConfig(
+        ks=ks,
+        kd=kd,
+        ks_terrain=ks_t,
+        kd_terrain=kd_t,
+        damping=damping,
+        integrator=integ,
+        events=ev,
+        dt=dt,
+        steps_per_contact=spc,
+        zeta=zeta_ref,
+        zeta_range=(min(zetas), max(zetas)),
+        restitution_range=(restitution_for_zeta(max(zetas), damping), restitution_for_zeta(min(zetas), damping)),
+        contact_time=t_c_min,
+        predicted_error=pred,
+        cost_per_contact=cost,
+        cost_per_second=cost / t_c_min,
+        alternatives=[(round(o[0], 3), o[1], o[2], round(o[3], 3)) for o in options],
+    )
+
+
+def _checked(
+    masses: Any,
+    radii: Any,
+    max_impact_speed: float,
+    penetration: float,
+    accuracy: float,
+    damping: str,
+    terrain: bool,
+    events: bool | None,
+    integrators: Sequence[str],
+    max_dt: float | None,
+    gravity: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The masses and radii as arrays, every argument checked (a ValueError names the bad one)."""
     m = V.real_array("masses", masses).reshape(-1)
     r = V.real_array("radii", radii).reshape(-1)
     if m.size == 0 or r.size != m.size or np.any(m <= 0) or np.any(r <= 0):
@@ -305,12 +269,15 @@ def configure(
     if max_dt is not None:
         V.positive("max_dt", max_dt)
     V.real("gravity", gravity)
-    if energy_budget is not None:
-        V.positive("energy_budget", energy_budget)
-    if not ERROR_MODELS:
-        raise RuntimeError("no measured error models: run python -m penalty_env.bench accuracy --fit")
-    v = float(max_impact_speed)
-    delta_tol = float(penetration) * float(r.min())
+    return m, r
+
+
+def _contacts(
+    m: np.ndarray, v: float, delta_tol: float, restitution: float, damping: str, terrain: bool, max_force: float | None
+) -> tuple[float, float, float, float, list, list, float]:
+    """(ks, kd, ks_terrain, kd_terrain, every contact type as (ks, kd, m_eff), their zetas, the
+    reference zeta) before the penetration scaling: ks from the heaviest contact's impact, kd from
+    the target restitution."""
     ms = np.sort(m)
     # effective masses of the contacts the scene can form: heaviest and lightest pair, and terrain
     pair_meff = []
@@ -345,9 +312,23 @@ def configure(
             f"(zeta <= {zeta_models:g}, restitution >= {e_min:.3g} with {damping} damping); ask for a larger "
             f"restitution or closer masses"
         )
-    t_cs = [theory.contact_time(k, c, me) for k, c, me in contacts]
-    t_c_min = min(t_cs)
+    return ks, kd, ks_t, kd_t, contacts, zetas, zeta_ref
 
+
+def _options(
+    integrators: Sequence[str],
+    events: bool | None,
+    damping: str,
+    accuracy: float,
+    contacts: list,
+    zetas: list,
+    t_cs: list,
+    max_dt: float | None,
+    energy_budget: float | None,
+) -> list:
+    """Every (cost, integrator, events, steps per contact, dt) that meets the accuracy on every
+    contact, within the guard and the energy budget."""
+    t_c_min = min(t_cs)
     event_choices = (False, True) if events is None else (bool(events),)
     options = []
     for integ in integrators:
@@ -377,18 +358,23 @@ def configure(
             spc = t_c_min / dt
             cost = config_cost(integ, ev, spc)
             options.append((cost, integ, ev, spc, dt))
-    if not options:
-        raise ValueError(
-            f"no measured integrator meets accuracy {accuracy:g} on restitution at zeta {zeta_ref:.3g} "
-            f"({damping}); loosen the tolerance"
-        )
-    options.sort(key=lambda o: o[0])
-    cost, integ, ev, spc, dt = options[0]
-    pred = {}
-    for mt in METRICS + ("peak_overlap",):
-        pred[mt] = max(predicted_error(integ, ev, damping, z, tc / dt, mt) for z, tc in zip(zetas, t_cs))
-    # hold the penetration tolerance: scale every stiffness by s^2 (and every kd by s, keeping
-    # zeta), so each omega0 grows by s, until peak * (1 + numerical peak error) <= delta_tol
+    return options
+
+
+def _penetration_scale(
+    integ: str,
+    ev: bool,
+    damping: str,
+    zetas: list,
+    t_cs: list,
+    dt: float,
+    contacts: list,
+    v: float,
+    delta_tol: float,
+    gravity: float,
+) -> float:
+    """Hold the penetration tolerance: the factor s by which every omega0 grows (every stiffness by
+    s^2, every kd by s, keeping zeta) until peak * (1 + numerical peak error) <= delta_tol."""
     err_peak = [min(predicted_error(integ, ev, damping, z, tc / dt, "peak_overlap"), 1.0) for z, tc in zip(zetas, t_cs)]
     omegas = [math.sqrt(k / me) for k, _, me in contacts]
     scale = 1.0
@@ -402,25 +388,4 @@ def configure(
         if abs(new_scale - scale) <= 1e-12 * scale:
             break
         scale = new_scale
-    ks, ks_t, kd, kd_t = ks * scale**2, ks_t * scale**2, kd * scale, kd_t * scale
-    dt /= scale
-    t_c_min /= scale
-    return ContactConfig(
-        ks=ks,
-        kd=kd,
-        ks_terrain=ks_t,
-        kd_terrain=kd_t,
-        damping=damping,
-        integrator=integ,
-        events=ev,
-        dt=dt,
-        steps_per_contact=spc,
-        zeta=zeta_ref,
-        zeta_range=(min(zetas), max(zetas)),
-        restitution_range=(restitution_for_zeta(max(zetas), damping), restitution_for_zeta(min(zetas), damping)),
-        contact_time=t_c_min,
-        predicted_error=pred,
-        cost_per_contact=cost,
-        cost_per_second=cost / t_c_min,
-        alternatives=[(round(o[0], 3), o[1], o[2], round(o[3], 3)) for o in options],
-    )
+    return scale

@@ -1,23 +1,37 @@
-"""The stability guard of a :class:`~.world.World` (docs/physics.md section 4): the largest step its
-integrator keeps stable on the stiffest contact the scene can form, the energy budget of many
-elastic collisions (section 6), and the messages that say which contact limits the step and how
-many substeps meet it."""
+"""The guard of a :class:`~.world.World`: the largest step its integrator keeps stable on the
+stiffest contact the scene can form (docs/physics.md section 4), the energy budget of many elastic
+collisions (section 6), the messages that say which contact limits the step and how many substeps
+meet it, and the check of a starting state (overlaps deep enough to launch balls through others)."""
 
 from __future__ import annotations
 
 import math
+import warnings
+from typing import Any
 
 import numpy as np
 
 from . import theory
 from .model import inertia_factor
 
-__all__ = ["StabilityGuard", "STABILITY_SAFETY"]
+__all__ = ["StabilityGuard", "STABILITY_SAFETY", "StartOverlapWarning", "EnergyDriftWarning"]
 
 # The guard allows dt <= theory.guard_dt of the stiffest contact: STABILITY_SAFETY x its critical dt,
 # and no more than a dense pile's fastest mode allows (a ball in 12 contacts vibrates at twice the
 # frequency and twice the damping ratio of one contact; see theory.guard_omega_dt).
 STABILITY_SAFETY = theory.GUARD_SAFETY
+
+
+class StartOverlapWarning(RuntimeWarning):
+    """A state in which two balls, or a ball and the terrain, overlap by the smaller radius or more:
+    the spring stores more energy than the contact model resolves (it launches the balls fast
+    enough to drive other contacts through each other)."""
+
+
+class EnergyDriftWarning(RuntimeWarning):
+    """A time step at which elastic collisions gain energy on average beyond
+    ``theory.ENERGY_BUDGET`` (docs/physics.md section 6): stable, but a scene of many collisions
+    heats up."""
 
 
 class StabilityGuard:
@@ -39,6 +53,13 @@ class StabilityGuard:
     dt: float
     dt_max: float
     dt_energy: float
+    allow_unstable: bool
+    _batched: bool
+    _deepest: np.ndarray
+    _state: Any
+    _rows: tuple
+    _max_penetration_of: Any
+    _evaluate: Any
 
     def _lightest_contact_mass(self) -> float:
         """Smallest effective mass of any contact the scene can form (pair or ball-terrain)."""
@@ -143,4 +164,33 @@ class StabilityGuard:
             f"{theory.critical_dt(self.integrator, ks, kd, me):.6g}; the guard keeps {STABILITY_SAFETY}x of it, "
             f"less for a damped contact, whose dense-pile mode fails sooner): use {substeps} substeps of "
             f"{self.dt / substeps:.6g} per step of {self.dt:g}, or pass allow_unstable=True."
+        )
+
+    def _check_start(self, worlds: np.ndarray) -> None:
+        """Warn (:class:`StartOverlapWarning`, with the balls and the figures) about a state in
+        which two balls, or a ball and the terrain, overlap by the smaller radius or more: the
+        spring would release 1/2 ks overlap^2 as a speed that drives any contact as stiff through a
+        ball, so the energy of the scene is not what the state says (coincident centres are the
+        extreme case). ``allow_unstable=True`` silences it."""
+        if self.allow_unstable or worlds.size == 0:
+            return
+        frac = self._deepest[: worlds.size]
+        self._max_penetration_of(worlds, frac)
+        bad = np.flatnonzero(frac >= 1.0)
+        if not bad.size:
+            return
+        t = int(bad[np.argmax(frac[bad])])
+        b = int(worlds[t])
+        where = "" if not self._batched else f" of world {b}"
+        what, ks, m_eff, r = self._deepest_contact(b)
+        overlap = frac[t] * r
+        speed = overlap * theory.natural_frequency(ks, m_eff)
+        warnings.warn(
+            f"{what}{where} start overlapping by {overlap:.4g} ({frac[t]:.3g} x the smaller radius {r:g}; "
+            f"{bad.size} world(s) so): the spring stores 1/2 ks overlap^2 = {0.5 * ks * overlap**2:.4g} and releases "
+            f"it as a speed of {speed:.4g}, enough to drive any contact as stiff through a ball, and the scene's "
+            f"energy will not stay what this state says. Move them apart (allow_unstable=True silences this "
+            f"warning).",
+            StartOverlapWarning,
+            stacklevel=3,
         )

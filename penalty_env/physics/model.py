@@ -33,7 +33,18 @@ import numpy as np
 
 from .geometry.table import ShapeTable, pose_size
 
-__all__ = ["Model", "State", "Control", "Motors", "Spin", "TANGENTIAL", "no_motors", "new_control", "new_spin", "inertia_factor"]
+__all__ = [
+    "Model",
+    "State",
+    "Control",
+    "Motors",
+    "Spin",
+    "TANGENTIAL",
+    "no_motors",
+    "new_control",
+    "new_spin",
+    "inertia_factor",
+]
 
 
 class Motors(NamedTuple):

@@ -22,7 +22,7 @@ from .broadphase.grid import GRID_MIN_BALLS, new_grid, no_grid
 from .geometry.pack import is_static_round, pack_table
 from .geometry.shapes import Shape
 from .geometry.user import SDF
-from .guard import STABILITY_SAFETY, StabilityGuard
+from .guard import STABILITY_SAFETY, EnergyDriftWarning, StabilityGuard, StartOverlapWarning
 from .model import TANGENTIAL, Model, Spin, State, new_control, new_spin
 from .stepping.common import STATUS_CG, STATUS_NONFINITE
 from .stepping.integrators import INTEGRATORS, allocate_work
@@ -59,18 +59,6 @@ MAX_STEPS_PER_CALL = 2**62  # ``step(n)``: the kernels count steps in int64
 # whose store would exceed this (the neighbour list, which would store it per listed pair, refuses
 # rotation for now)
 MAX_HISTORY_BYTES = 2 * 2**30
-
-
-class StartOverlapWarning(RuntimeWarning):
-    """A state in which two balls, or a ball and the terrain, overlap by the smaller radius or more:
-    the spring stores more energy than the contact model resolves (it launches the balls fast
-    enough to drive other contacts through each other)."""
-
-
-class EnergyDriftWarning(RuntimeWarning):
-    """A time step at which elastic collisions gain energy on average beyond
-    ``theory.ENERGY_BUDGET`` (docs/physics.md section 6): stable, but a scene of many collisions
-    heats up."""
 
 
 class World(StabilityGuard, TerrainAccess, StateAccess):
@@ -440,36 +428,6 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
                 stacklevel=3,
             )
 
-    # ---------------------------------------------------------------- the starting state
-    def _check_start(self, worlds: np.ndarray) -> None:
-        """Warn (:class:`StartOverlapWarning`, with the balls and the figures) about a state in
-        which two balls, or a ball and the terrain, overlap by the smaller radius or more: the
-        spring would release 1/2 ks overlap^2 as a speed that drives any contact as stiff through a
-        ball, so the energy of the scene is not what the state says (coincident centres are the
-        extreme case). ``allow_unstable=True`` silences it."""
-        if self.allow_unstable or worlds.size == 0:
-            return
-        frac = self._deepest[: worlds.size]
-        self._max_penetration_of(worlds, frac)
-        bad = np.flatnonzero(frac >= 1.0)
-        if not bad.size:
-            return
-        t = int(bad[np.argmax(frac[bad])])
-        b = int(worlds[t])
-        where = "" if not self._batched else f" of world {b}"
-        what, ks, m_eff, r = self._deepest_contact(b)
-        overlap = frac[t] * r
-        speed = overlap * theory.natural_frequency(ks, m_eff)
-        warnings.warn(
-            f"{what}{where} start overlapping by {overlap:.4g} ({frac[t]:.3g} x the smaller radius {r:g}; "
-            f"{bad.size} world(s) so): the spring stores 1/2 ks overlap^2 = {0.5 * ks * overlap**2:.4g} and releases "
-            f"it as a speed of {speed:.4g}, enough to drive any contact as stiff through a ball, and the scene's "
-            f"energy will not stay what this state says. Move them apart (allow_unstable=True silences this "
-            f"warning).",
-            StartOverlapWarning,
-            stacklevel=3,
-        )
-
     def _max_penetration_of(self, worlds: np.ndarray, out: np.ndarray) -> None:
         x = self._state.positions
         scratch = self._runner.scratch.partners
@@ -519,4 +477,3 @@ def _probe_user(shape: Shape, x: np.ndarray) -> None:
     points = np.concatenate([x.reshape(-1, x.shape[-1])[:4096], lattice])
     assert isinstance(shape, SDF)
     shape.probe(points)
-

@@ -97,7 +97,9 @@ def motor_arrays(motors: Sequence[Motor], n: int, d: int) -> Motors:
     rows = []
     for q, m in enumerate(motors):
         if not isinstance(m, Motor):
-            raise V.ArgumentTypeError(f"motors[{q}] must be a Motor(ball, max_force, max_speed, axes), got {V.describe(m)}")
+            raise V.ArgumentTypeError(
+                f"motors[{q}] must be a Motor(ball, max_force, max_speed, axes), got {V.describe(m)}"
+            )
         ball = V.integer(f"motors[{q}].ball", m.ball, 0, n - 1, "a ball index")
         force = V.positive(f"motors[{q}].max_force", m.max_force)
         speed = V.positive(f"motors[{q}].max_speed", m.max_speed)

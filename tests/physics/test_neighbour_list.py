@@ -387,4 +387,3 @@ def test_the_list_pass_block_law_compiles_to_vector_code():
     asm = "".join(fn.inspect_asm().values())
     assert ir.count("<4 x double>") + ir.count("<2 x double>") + ir.count("<8 x double>") > 0
     assert re.findall(r"\bv?sqrtpd\b", asm) and re.findall(r"\bv?divpd\b", asm)
-

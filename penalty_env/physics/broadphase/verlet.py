@@ -85,7 +85,9 @@ class LargeWorld(NamedTuple):
     tmp: np.ndarray  # (n, max(D, 2)) float scratch
     nbr: np.ndarray  # (n, cap) int32 storage slots of each ball's listed neighbours, in grid order
     count: np.ndarray  # (n,) int32 listed neighbours per ball
-    near: np.ndarray  # (n,) int8: bit 1 if within a skin of a static sphere or bowl at the build, bit 2 of another shape
+    near: (
+        np.ndarray
+    )  # (n,) int8: bit 1 if within a skin of a static sphere or bowl at the build, bit 2 of another shape
     xref: np.ndarray  # (n, D) positions at the last build
     escaped: np.ndarray  # (n,) int8: 1 once the slot has moved skin / 2 from xref
     escapes: np.ndarray  # (max_escapes,) the escaped slots, in the order they escaped

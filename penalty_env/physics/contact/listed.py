@@ -42,7 +42,20 @@ def round_terrain_force(b, i, x, v, out, sm, D):
     for s in range(sm.round_radius.shape[0]):
         c = sm.round_center[s]
         touching, f0, f1, f2 = round_force(
-            p0, p1, p2, u0, u1, u2, r, sm.round_sign[s], c[0], c[1], (c[2] if D == 3 else 0.0), sm.round_radius[s], sm, D
+            p0,
+            p1,
+            p2,
+            u0,
+            u1,
+            u2,
+            r,
+            sm.round_sign[s],
+            c[0],
+            c[1],
+            (c[2] if D == 3 else 0.0),
+            sm.round_radius[s],
+            sm,
+            D,
         )
         if touching:
             out[b, i, 0] += f0

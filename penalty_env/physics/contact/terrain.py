@@ -160,7 +160,20 @@ def terrain_force(b, i, x, v, out, model, D):
             continue
         c = table.pose[b, s]
         touching, f0, f1, f2 = round_force(
-            p0, p1, p2, u0, u1, u2, r, table.shape[s, SIGN], c[0], c[1], (c[2] if D == 3 else 0.0), table.shape[s, P0], model, D
+            p0,
+            p1,
+            p2,
+            u0,
+            u1,
+            u2,
+            r,
+            table.shape[s, SIGN],
+            c[0],
+            c[1],
+            (c[2] if D == 3 else 0.0),
+            table.shape[s, P0],
+            model,
+            D,
         )
         if touching:
             out[b, i, 0] += f0

@@ -3,8 +3,8 @@
 =================  ============================================================================
 module             what it holds
 =================  ============================================================================
-``shapes``         the ``Shape`` base, spheres, bowls, planes, boxes (Python side)
-``solids``         capsules, cylinders, cones, tori
+``shapes``         the ``Shape`` base, spheres, bowls, planes (Python side)
+``solids``         boxes, capsules, cylinders, cones, tori
 ``heightfield``    height fields
 ``csg``            unions, intersections, differences, complements
 ``user``           a user's own jitted SDF
@@ -19,8 +19,8 @@ module             what it holds
 
 from .csg import Difference, Inside, Intersection, Union
 from .heightfield import HeightField
-from .shapes import Bowl, Box, Plane, Shape, Sphere, rotation_matrix
-from .solids import Capsule, Cone, Cylinder, Torus
+from .shapes import Bowl, Plane, Shape, Sphere, rotation_matrix
+from .solids import Box, Capsule, Cone, Cylinder, Torus
 from .user import SDF
 
 __all__ = [

@@ -24,8 +24,8 @@ shape              solid                                               phi
 ``SDF``            a user's Numba function of one point                 the user's
 =================  ==================================================  ==========================
 
-This module holds the base class, the spheres and bowls, planes and boxes; :mod:`.solids` the
-solids of revolution and capsules, :mod:`.heightfield`, :mod:`.csg` and :mod:`.user` the rest.
+This module holds the base class, the spheres and bowls, and planes; :mod:`.solids` boxes,
+capsules and the solids of revolution, :mod:`.heightfield`, :mod:`.csg` and :mod:`.user` the rest.
 Every shape becomes a row of the kernels' :class:`~.table.ShapeTable` (:func:`.pack.pack_table`).
 """
 
@@ -39,7 +39,7 @@ import numpy as np
 
 from ... import _validate as V
 from .evaluate import evaluate
-from .sdf import BOX, PLANE, ROUND
+from .sdf import PLANE, ROUND
 from .table import OP_NEGATE
 
 __all__ = [
@@ -47,7 +47,6 @@ __all__ = [
     "Sphere",
     "Bowl",
     "Plane",
-    "Box",
     "rotation_matrix",
 ]
 
@@ -372,7 +371,7 @@ class Bowl(_Round):
 
 
 # ---------------------------------------------------------------------------------------------
-# Planes and boxes
+# Planes
 # ---------------------------------------------------------------------------------------------
 
 
@@ -416,78 +415,6 @@ class Plane(Shape):
 
     def __repr__(self) -> str:
         return f"Plane(point={self.point}, normal={tuple(np.round(self.normal, 12))})"
-
-
-def _face_samples(n: int, h: np.ndarray) -> np.ndarray:
-    """Points spread over the faces of the box of half extents h, by area (edges of a rectangle in 2D)."""
-    d = len(h)
-    out = []
-    if d == 2:
-        per = 4.0 * (h[0] + h[1])
-        for axis in range(2):
-            other = 1 - axis
-            m = max(1, int(round(n * 2.0 * h[other] / per)))
-            t = ((np.arange(m) + 0.5) / m * 2.0 - 1.0) * h[other]
-            for s in (-1.0, 1.0):
-                pts = np.zeros((m, 2))
-                pts[:, axis] = s * h[axis]
-                pts[:, other] = t
-                out.append(pts)
-        return np.concatenate(out)
-    area = [4.0 * h[1] * h[2], 4.0 * h[0] * h[2], 4.0 * h[0] * h[1]]
-    total = 2.0 * sum(area)
-    for axis in range(3):
-        u, w = [k for k in range(3) if k != axis]
-        m = max(1, int(round(math.sqrt(n * area[axis] / total * h[u] / max(h[w], 1e-300)))))
-        k = max(1, int(round(n * area[axis] / total / m)))
-        gu = ((np.arange(m) + 0.5) / m * 2.0 - 1.0) * h[u]
-        gw = ((np.arange(k) + 0.5) / k * 2.0 - 1.0) * h[w]
-        U, W = np.meshgrid(gu, gw, indexing="ij")
-        for s in (-1.0, 1.0):
-            pts = np.zeros((U.size, 3))
-            pts[:, axis] = s * h[axis]
-            pts[:, u] = U.ravel()
-            pts[:, w] = W.ravel()
-            out.append(pts)
-    return np.concatenate(out)
-
-
-class Box(Shape):
-    """A box of ``half_extents`` about ``center``, rotated by ``rotation`` (its local axes are the
-    columns). Exact: phi = |max(u, 0)| + min(max_k u_k, 0), u = |R^T (x - c)| - h."""
-
-    kind = BOX
-
-    def __init__(
-        self,
-        center: Any,
-        half_extents: Any,
-        rotation: Any = None,
-        *,
-        velocity: Any = None,
-        angular_velocity: Any = None,
-    ) -> None:
-        c = _point("center", center)
-        h = V.real_array("half_extents", half_extents, shape=(len(c),))
-        if not np.all(h > 0.0):
-            raise ValueError(f"half_extents must all be > 0, got {h.tolist()}")
-        self._init_pose(c, _rotation("rotation", rotation, len(c)), velocity, angular_velocity)
-        self.half_extents = tuple(float(x) for x in h)
-
-    def _local_samples(self, n: int, window: Any) -> np.ndarray:
-        return _face_samples(n, np.asarray(self.half_extents))
-
-    def _par(self) -> list[float]:
-        return list(self.half_extents)
-
-    def _bound(self) -> float:
-        return float(np.linalg.norm(self.half_extents))
-
-    def _inner(self) -> float:
-        return float(min(self.half_extents))
-
-    def __repr__(self) -> str:
-        return f"Box({self._describe_pose()}, half_extents={self.half_extents})"
 
 
 def _project(shape: Shape, points: np.ndarray, keep_tol: float, iterations: int = 12) -> np.ndarray:

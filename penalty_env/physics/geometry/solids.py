@@ -1,5 +1,5 @@
-"""Capsules and the solids of revolution (cylinders, cones, tori): their parameters, bounds and
-boundary samples (their signed distances are :mod:`.sdf`'s)."""
+"""Boxes, capsules and the solids of revolution (cylinders, cones, tori): their parameters, bounds
+and boundary samples (their signed distances are :mod:`.sdf`'s)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,82 @@ from typing import Any
 import numpy as np
 
 from ... import _validate as V
-from .sdf import CAPSULE, CONE, CYLINDER, TORUS
-from .shapes import Shape, _axis_and_rotation, _axis_rotation, _point, _sphere_dirs
+from .sdf import BOX, CAPSULE, CONE, CYLINDER, TORUS
+from .shapes import Shape, _axis_and_rotation, _axis_rotation, _point, _rotation, _sphere_dirs
 
-__all__ = ["Capsule", "Cylinder", "Cone", "Torus"]
+__all__ = ["Box", "Capsule", "Cylinder", "Cone", "Torus"]
+
+
+def _face_samples(n: int, h: np.ndarray) -> np.ndarray:
+    """Points spread over the faces of the box of half extents h, by area (edges of a rectangle in 2D)."""
+    d = len(h)
+    out = []
+    if d == 2:
+        per = 4.0 * (h[0] + h[1])
+        for axis in range(2):
+            other = 1 - axis
+            m = max(1, int(round(n * 2.0 * h[other] / per)))
+            t = ((np.arange(m) + 0.5) / m * 2.0 - 1.0) * h[other]
+            for s in (-1.0, 1.0):
+                pts = np.zeros((m, 2))
+                pts[:, axis] = s * h[axis]
+                pts[:, other] = t
+                out.append(pts)
+        return np.concatenate(out)
+    area = [4.0 * h[1] * h[2], 4.0 * h[0] * h[2], 4.0 * h[0] * h[1]]
+    total = 2.0 * sum(area)
+    for axis in range(3):
+        u, w = [k for k in range(3) if k != axis]
+        m = max(1, int(round(math.sqrt(n * area[axis] / total * h[u] / max(h[w], 1e-300)))))
+        k = max(1, int(round(n * area[axis] / total / m)))
+        gu = ((np.arange(m) + 0.5) / m * 2.0 - 1.0) * h[u]
+        gw = ((np.arange(k) + 0.5) / k * 2.0 - 1.0) * h[w]
+        U, W = np.meshgrid(gu, gw, indexing="ij")
+        for s in (-1.0, 1.0):
+            pts = np.zeros((U.size, 3))
+            pts[:, axis] = s * h[axis]
+            pts[:, u] = U.ravel()
+            pts[:, w] = W.ravel()
+            out.append(pts)
+    return np.concatenate(out)
+
+
+class Box(Shape):
+    """A box of ``half_extents`` about ``center``, rotated by ``rotation`` (its local axes are the
+    columns). Exact: phi = |max(u, 0)| + min(max_k u_k, 0), u = |R^T (x - c)| - h."""
+
+    kind = BOX
+
+    def __init__(
+        self,
+        center: Any,
+        half_extents: Any,
+        rotation: Any = None,
+        *,
+        velocity: Any = None,
+        angular_velocity: Any = None,
+    ) -> None:
+        c = _point("center", center)
+        h = V.real_array("half_extents", half_extents, shape=(len(c),))
+        if not np.all(h > 0.0):
+            raise ValueError(f"half_extents must all be > 0, got {h.tolist()}")
+        self._init_pose(c, _rotation("rotation", rotation, len(c)), velocity, angular_velocity)
+        self.half_extents = tuple(float(x) for x in h)
+
+    def _local_samples(self, n: int, window: Any) -> np.ndarray:
+        return _face_samples(n, np.asarray(self.half_extents))
+
+    def _par(self) -> list[float]:
+        return list(self.half_extents)
+
+    def _bound(self) -> float:
+        return float(np.linalg.norm(self.half_extents))
+
+    def _inner(self) -> float:
+        return float(min(self.half_extents))
+
+    def __repr__(self) -> str:
+        return f"Box({self._describe_pose()}, half_extents={self.half_extents})"
 
 
 def _revolve(profile_r: np.ndarray, profile_z: np.ndarray, weights: np.ndarray, n: int, d: int) -> np.ndarray:

@@ -141,4 +141,3 @@ def _is_jitted(fn: Any) -> bool:
     from numba.core.registry import CPUDispatcher
 
     return isinstance(fn, CPUDispatcher)
-

@@ -255,6 +255,52 @@ def _start_landing(b, dt, x, v, ev, rk4, model, D, a0, a0_valid):
 
 
 @njit
+def _refine_landing(b, dt, x, v, ev, a0, a0_valid, tau, sg, rate, s, m, count):
+    """A landing step from S0 over tau missed the margin (s gap = sg against m): update the bracket
+    and take the next root-finding step on G(tau) = s gap - m (secant, Newton, or bisection), or
+    after MAX_LAND tries give up on landing and step plainly."""
+    if sg > m:
+        ev.ints[b, I_HAS_LO] = 1
+        ev.flts[b, F_TLO] = tau
+        ev.flts[b, F_SGLO] = sg
+    else:
+        ev.ints[b, I_HAS_HI] = 1
+        ev.flts[b, F_THI] = tau
+        ev.flts[b, F_SGHI] = sg
+    ev.ints[b, I_LAND] += 1
+    if ev.ints[b, I_LAND] > MAX_LAND:
+        if count == 0 and sg > 0.0:
+            # a clean sub-step that is not at the switch: accept it and look again from there
+            ev.counts[b, C_FALLBACKS] += 1
+            return _next_subgoal(b, dt, x, v, ev, a0, a0_valid)
+        _restore(b, x, v, ev, a0, a0_valid)
+        ev.flts[b, F_TAU] = ev.flts[b, F_TLEFT]
+        ev.counts[b, C_FALLBACKS] += 1
+        ev.ints[b, I_PHASE] = PHASE_PLAIN
+        return ACT_STEP
+    G = sg - m
+    if ev.ints[b, I_HAS_PREV] == 1 and ev.flts[b, F_SGPREV] != sg:
+        # secant through the last two samples
+        tp = ev.flts[b, F_TPREV]
+        Gp = ev.flts[b, F_SGPREV] - m
+        tau_new = tau - G * (tau - tp) / (G - Gp)
+    elif sg > 0.0 and s * rate < 0.0:
+        tau_new = tau + G / (-s * rate)  # Newton with d(s gap)/dtau ~ s rate
+    else:
+        tau_new = -1.0
+    lo = ev.flts[b, F_TLO]
+    hi = ev.flts[b, F_THI] if ev.ints[b, I_HAS_HI] == 1 else ev.flts[b, F_TLEFT]
+    if not (lo < tau_new < hi):
+        tau_new = 0.5 * (lo + hi)  # safeguard: bisect the bracket
+    ev.ints[b, I_HAS_PREV] = 1
+    ev.flts[b, F_TPREV] = tau
+    ev.flts[b, F_SGPREV] = sg
+    _restore(b, x, v, ev, a0, a0_valid)
+    ev.flts[b, F_TAU] = tau_new
+    return ACT_STEP
+
+
+@njit
 def decide(b, dt, x, v, rk4, grid, buf, model, D, ev, a0, a0_valid):
     """After an integrator call from S0 over F_TAU: accept, retry with another tau, or cross."""
     ev.ints[b, I_CALLS] += 1
@@ -299,46 +345,7 @@ def decide(b, dt, x, v, rk4, grid, buf, model, D, ev, a0, a0_valid):
         if res == CROSS_AFTER_STEP:
             ev.ints[b, I_PHASE] = PHASE_PLAIN  # the few ulps left of the step: step them plainly
         return act
-    # not there yet: update the bracket and take the next root-finding step on G(tau) = s gap - m
-    if sg > m:
-        ev.ints[b, I_HAS_LO] = 1
-        ev.flts[b, F_TLO] = tau
-        ev.flts[b, F_SGLO] = sg
-    else:
-        ev.ints[b, I_HAS_HI] = 1
-        ev.flts[b, F_THI] = tau
-        ev.flts[b, F_SGHI] = sg
-    ev.ints[b, I_LAND] += 1
-    if ev.ints[b, I_LAND] > MAX_LAND:
-        if count == 0 and sg > 0.0:
-            # a clean sub-step that is not at the switch: accept it and look again from there
-            ev.counts[b, C_FALLBACKS] += 1
-            return _next_subgoal(b, dt, x, v, ev, a0, a0_valid)
-        _restore(b, x, v, ev, a0, a0_valid)
-        ev.flts[b, F_TAU] = ev.flts[b, F_TLEFT]
-        ev.counts[b, C_FALLBACKS] += 1
-        ev.ints[b, I_PHASE] = PHASE_PLAIN
-        return ACT_STEP
-    G = sg - m
-    if ev.ints[b, I_HAS_PREV] == 1 and ev.flts[b, F_SGPREV] != sg:
-        # secant through the last two samples
-        tp = ev.flts[b, F_TPREV]
-        Gp = ev.flts[b, F_SGPREV] - m
-        tau_new = tau - G * (tau - tp) / (G - Gp)
-    elif sg > 0.0 and s * rate < 0.0:
-        tau_new = tau + G / (-s * rate)  # Newton with d(s gap)/dtau ~ s rate
-    else:
-        tau_new = -1.0
-    lo = ev.flts[b, F_TLO]
-    hi = ev.flts[b, F_THI] if ev.ints[b, I_HAS_HI] == 1 else ev.flts[b, F_TLEFT]
-    if not (lo < tau_new < hi):
-        tau_new = 0.5 * (lo + hi)  # safeguard: bisect the bracket
-    ev.ints[b, I_HAS_PREV] = 1
-    ev.flts[b, F_TPREV] = tau
-    ev.flts[b, F_SGPREV] = sg
-    _restore(b, x, v, ev, a0, a0_valid)
-    ev.flts[b, F_TAU] = tau_new
-    return ACT_STEP
+    return _refine_landing(b, dt, x, v, ev, a0, a0_valid, tau, sg, rate, s, m, count)
 
 
 @njit

@@ -1,10 +1,32 @@
 """Large worlds: a Verlet neighbour list per world, and the force loop parallel over balls.
 
 A world of ``LARGE_WORLD_MIN_BALLS`` balls or more, with the grid and symplectic or explicit Euler,
-is stepped here, through its own list (:mod:`..broadphase.verlet`; :func:`run_large`'s docstring
-gives the algorithm: escaped balls, slabs of cells whose writes never meet, so the result depends
-neither on the thread count nor on how the steps are split into calls). The pair law is the
-list's twin, :func:`..contact.listed.listed_forces`.
+is stepped here, through its own list (:mod:`..broadphase.verlet`). The pair law is the list's
+twin, :func:`..contact.listed.listed_forces`.
+
+The algorithm. A Verlet neighbour list, as LAMMPS and HOOMD keep: every pair within
+r_i + r_j + skin is listed once (by its lower storage slot), found through a grid whose cells are
+at least that wide. Until a ball has moved skin / 2 from where it was at the build, no pair outside
+the list can touch, so a step visits only the list, and each pair's force is computed once and
+applied to both balls (Newton's third law, as LAMMPS's "newton on"; measured at 100,000 balls,
+1.3x faster than gathering every pair from both sides). The writes stay apart by slabs: with the
+storage sorted by cell, one layer of cells along the last axis is a contiguous range of slots, and
+its listed partners lie in the same layer or the next. So the even layers run in parallel, then the
+odd ones, each layer serially in storage order. A layer's forces are complete once it and the
+layer before it have run, and no later work of the step reads its state: so each odd layer, once
+its forces are in, advances itself and the (even) layer after it while they are still in cache.
+The terrain is tested only for the balls that were within a skin of it at the build (a ball that
+has not escaped has moved less than skin / 2 since) and for the escaped ones.
+
+A ball that has moved skin / 2 "escapes": the list no longer speaks for it, and its contacts are
+found each step through the build's grid (:func:`_escaped_contacts`, before the layers, while
+every ball is still where the step began). In a pile a few fast balls escape long before the rest
+move; they no longer force the whole list to be rebuilt. Once ``escapes`` is full, the next step
+re-sorts the storage by grid cell (balls that touch sit close in memory) and rebuilds the list.
+
+Nothing depends on the thread count (what each ball receives, and in which order, is fixed by the
+layers and the list; the escaped balls go in a serial pass), and the rebuilds depend only on the
+state, so splitting the steps over calls changes nothing.
 
 One algorithm, two compilations: :func:`run_large` runs its loops parallel over the balls (a single
 large world), :func:`run_large_serial` (the same source without parallel regions, the GIL released)
@@ -19,18 +41,17 @@ from typing import Any
 
 import numpy as np
 
-from ..._jit import entry_point, njit, prange
+from ..._jit import njit, prange
 from ..broadphase.grid import build_grid
 from ..broadphase.partners import cell_partners
-from ..broadphase.verlet import SlimModel, build_list, new_large_world, permute_rows
-from ..contact.listed import PAIR_BLOCK, PAIR_ROWS, listed_forces
+from ..broadphase.verlet import build_list, permute_rows
+from ..contact.listed import listed_forces
 from ..contact.pair import pair_force
 from ..contact.terrain import has_summed_shapes, summed_terrain
 from ..geometry.evaluate import advance_shapes, terrain_clearance
-from .common import STATUS_OK, final_status
+from .common import final_status
 
 __all__ = [
-    "NeighbourLists",
     "run_large",
     "run_large_serial",
     "LARGE_WORLD_MIN_BALLS",
@@ -156,43 +177,139 @@ def _shape_forces(full, xs, vs, a, near, escaped, ne, D):
                 a[0, i, 2] += f2
 
 
+@njit
+def _rebuild(lw, xs, vs, es, has_ext, sm, threads, g, full):
+    """Re-sort the storage by grid cell (balls that touch sit close in memory), then list every
+    pair within reach. False if a position is not finite; leaves ``lw.state[0]`` at 0 when a ball
+    has more neighbours than the list holds (its last column takes the rejects)."""
+    D = len(g)
+    grid, perm, escaped = lw.grid, lw.perm, lw.escaped
+    n = xs.shape[1]
+    if not build_grid(0, xs, grid, sm.cell_size, D):
+        return False
+    order = lw.order
+    for i in range(n):
+        order[i] = grid.items[0, i]
+    permute_rows(xs, order, lw.tmp)
+    permute_rows(vs, order, lw.tmp)
+    if has_ext:
+        permute_rows(es, order, lw.tmp)
+    for i in range(n):
+        j = order[i]
+        lw.tmp[i, 0] = sm.radii[j]
+        lw.tmp[i, 1] = sm.inv_mass[j]
+        lw.itmp[i] = perm[j]
+    items = grid.items
+    for i in range(n):
+        sm.radii[i] = lw.tmp[i, 0]
+        sm.inv_mass[i] = lw.tmp[i, 1]
+        perm[i] = lw.itmp[i]
+        escaped[i] = 0
+        items[0, i] = i  # the grid now speaks of storage slots
+    most = build_list(grid, xs, sm, lw, threads, g)
+    _shapes_near(full, lw, xs, D)
+    lw.state[1] = most
+    lw.state[2] += 1
+    lw.state[3] = 0
+    if most < lw.nbr.shape[1]:
+        lw.state[0] = 1
+    return True
+
+
+@njit
+def _even_slabs(t, threads, slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, buf):
+    """Thread t's share of the even pass: the forces of even slabs t, t + threads, ... (round
+    robin: the slabs differ in size)."""
+    for q in range(t, (slabs + 1) // 2, threads):
+        _slab_forces(2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, buf)
+
+
+@njit
+def _odd_slabs_and_advance(
+    integ,
+    dt,
+    t,
+    threads,
+    slabs,
+    layer,
+    start,
+    xs,
+    vs,
+    a,
+    es,
+    has_ext,
+    nbr,
+    cnt,
+    near,
+    sm,
+    g,
+    xref,
+    escaped,
+    ne,
+    buf,
+    half2,
+):
+    """Thread t's share of the odd pass: each of its odd slabs' forces, then that slab and the next
+    advanced (thread 0 first advances slab 0, complete after the even pass). Returns how many slots
+    it marked as escaped, or -1 if a displacement is not finite."""
+    marked = 0
+    # (an int64 copy of t: a prange index may be unsigned, and int64 with uint64 unifies to float)
+    q = -1 if t == 0 else np.int64(t)
+    while q < slabs // 2:
+        s0 = 0
+        s1 = 1
+        if q >= 0:
+            s0 = 1 + 2 * q
+            _slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, buf)
+            s1 = min(s0 + 2, slabs)  # this slab and the next, contiguous in storage
+        m = _advance(
+            integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, has_ext, sm, xref, escaped, half2, g
+        )
+        marked = -1 if (m < 0 or marked < 0) else marked + m
+        q = np.int64(t) if q < 0 else q + threads
+    return marked
+
+
+@njit
+def _collect_escapes(lw, moved, threads, ne):
+    """Collect the step's newly escaped slots in storage order; ask for a rebuild when they no
+    longer fit, or at once when a position is not finite."""
+    escaped, escapes = lw.escaped, lw.escapes
+    fresh = 0
+    for t in range(threads):
+        if moved[t] < 0:
+            lw.state[0] = 0
+        fresh += moved[t]
+    if lw.state[0] != 0 and fresh > 0:
+        for i in range(escaped.shape[0]):
+            if escaped[i] == 1:
+                escaped[i] = 2
+                if ne < escapes.shape[0]:
+                    escapes[ne] = i
+                ne += 1
+        if ne > escapes.shape[0]:
+            lw.state[0] = 0
+    lw.state[3] = ne
+
+
 @njit(entry=True, parallel=True)
 def run_large(integ, nsteps, dt, x, v, ext, has_ext, sm, g, status, lw, threads, full):
-    """Symplectic or explicit Euler for a world too large to run one per thread. Returns the number
-    of steps taken: fewer than ``nsteps`` when the world blew up (``status``) or when a ball has more
-    neighbours than the list holds (``lw.state[1]`` says how many; the caller grows it and goes on).
+    """Symplectic or explicit Euler for a world too large to run one per thread (the module's
+    docstring gives the algorithm). Returns the number of steps taken: fewer than ``nsteps`` when
+    the world blew up (``status``) or when a ball has more neighbours than the list holds
+    (``lw.state[1]`` says how many; the caller grows it and goes on).
 
-    A Verlet neighbour list, as LAMMPS and HOOMD keep: every pair within r_i + r_j + skin is listed
-    once (by its lower storage slot), found through a grid whose cells are at least that wide.
-    Until a ball has moved skin / 2 from where it was at the build, no pair outside the list can
-    touch, so a step visits only the list, and each pair's force is computed once and applied to
-    both balls (Newton's third law, as LAMMPS's "newton on"; measured at 100,000 balls, 1.3x faster
-    than gathering every pair from both sides). The writes stay apart by slabs: with the storage
-    sorted by cell, one layer of cells along the last axis is a contiguous range of slots, and its
-    listed partners lie in the same layer or the next. So the even layers run in parallel, then the
-    odd ones, each layer serially in storage order. A layer's forces are complete once it and the
-    layer before it have run, and no later work of the step reads its state: so each odd layer,
-    once its forces are in, advances itself and the (even) layer after it while they are still in
-    cache. The terrain is tested only for the balls that were within a skin of it at the build (a
-    ball that has not escaped has moved less than skin / 2 since) and for the escaped ones.
+    ``x``, ``v``, ``ext``, ``status`` are the world's own ``(1, n, D)`` / ``(1,)`` slices, in ball
+    order: gathered into storage order on entry, scattered back on exit. ``sm`` is a Model whose
+    radii / inv_mass arrays are the world's own, permuted with the storage, with the static spheres
+    and bowls only; ``full`` is the same as a :class:`~..model.Model` with the world's whole shape
+    table: the other shapes run in two serial passes (:func:`_shapes_near`, :func:`_shape_forces`).
+    ``threads``: how many ways to split the slabs (the thread count, at most ``len(lw.moved)``; the
+    result does not depend on it).
 
-    A ball that has moved skin / 2 "escapes": the list no longer speaks for it, and its contacts are
-    found each step through the build's grid (:func:`_escaped_contacts`, before the layers, while
-    every ball is still where the step began). In a pile a few fast balls escape long before the
-    rest move; they no longer force the whole list to be rebuilt. Once ``escapes`` is full, the
-    next step re-sorts the storage by grid cell (balls that touch sit close in memory) and rebuilds
-    the list.
-
-    Nothing depends on the thread count (what each ball receives, and in which order, is fixed by
-    the layers and the list; the escaped balls go in a serial pass), and the rebuilds depend only
-    on the state, so splitting the steps over calls changes nothing. ``x``, ``v``, ``ext``,
-    ``status`` are the world's own ``(1, n, D)`` / ``(1,)`` slices, in ball order: gathered into
-    storage order on entry, scattered back on exit. ``sm`` is a Model
-    whose radii / inv_mass arrays are the world's own, permuted with the storage, with the static
-    spheres and bowls only; ``full`` is the same as a :class:`~..model.Model` with the world's whole
-    shape table: the other shapes run in two serial passes (:func:`_shapes_near`, :func:`_shape_forces`). ``threads``: how
-    many ways to split the slabs (the thread count, at most ``len(lw.moved)``; the result does not
-    depend on it).
+    One function (over 80 lines): its parallel loops take the world's arrays one by one, since
+    Numba 0.68's parallel regions cannot take them as a tuple (a store through a NamedTuple field
+    in a ``prange`` loop is silently dropped; a captured NamedTuple of arrays fails to lower).
     """
     D = len(g)
     n = x.shape[1]
@@ -201,8 +318,6 @@ def run_large(integ, nsteps, dt, x, v, ext, has_ext, sm, g, status, lw, threads,
     xs, vs, a, es, grid = lw.x, lw.v, lw.a, lw.ext, lw.grid
     perm, nbr, cnt, near, moved = lw.perm, lw.nbr, lw.count, lw.near, lw.moved
     xref, escaped, escapes, pairs = lw.xref, lw.escaped, lw.escapes, lw.pairs
-    start = grid.start[0]
-    items = grid.items
     threads = max(1, min(threads, moved.shape[0]))
     half2 = 0.25 * lw.skin * lw.skin
     for i in prange(n):
@@ -217,36 +332,9 @@ def run_large(integ, nsteps, dt, x, v, ext, has_ext, sm, g, status, lw, threads,
     taken = 0
     while taken < nsteps:
         if lw.state[0] == 0:
-            # re-sort the storage by grid cell, then list every pair within reach
-            if not build_grid(0, xs, grid, sm.cell_size, D):
-                ok = False
-                break
-            order = lw.order
-            for i in range(n):
-                order[i] = grid.items[0, i]
-            permute_rows(xs, order, lw.tmp)
-            permute_rows(vs, order, lw.tmp)
-            if has_ext:
-                permute_rows(es, order, lw.tmp)
-            for i in range(n):
-                j = order[i]
-                lw.tmp[i, 0] = sm.radii[j]
-                lw.tmp[i, 1] = sm.inv_mass[j]
-                lw.itmp[i] = perm[j]
-            for i in range(n):
-                sm.radii[i] = lw.tmp[i, 0]
-                sm.inv_mass[i] = lw.tmp[i, 1]
-                perm[i] = lw.itmp[i]
-                escaped[i] = 0
-                items[0, i] = i  # the grid now speaks of storage slots
-            most = build_list(grid, xs, sm, lw, threads, g)
-            _shapes_near(full, lw, xs, D)
-            lw.state[1] = most
-            lw.state[2] += 1
-            lw.state[3] = 0
-            if most >= nbr.shape[1]:
-                break  # list too small (its last column takes the rejects): the caller grows it
-            lw.state[0] = 1
+            ok = _rebuild(lw, xs, vs, es, has_ext, sm, threads, g, full)
+            if not ok or lw.state[0] == 0:
+                break  # a position that is not finite, or a list too small: the caller grows it
         ne = lw.state[3]
         # the escaped balls' pairs first (serial), then the slabs: each pair once, its force added
         # to both balls; a slab (one layer of cells along the last axis, a contiguous range of the
@@ -260,44 +348,36 @@ def run_large(integ, nsteps, dt, x, v, ext, has_ext, sm, g, status, lw, threads,
         # one of the two passes' calls of _slab_forces apart, and compiled it twice)
         layer = grid.dims[0, 0] * grid.dims[0, 1] if D == 3 else grid.dims[0, 0]
         slabs = grid.dims[0, D - 1]
+        start = grid.start[0]
         for t in prange(threads):
-            for q in range(t, (slabs + 1) // 2, threads):  # round robin: the slabs differ in size
-                _slab_forces(2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, pairs[t])
+            _even_slabs(t, threads, slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, pairs[t])
         for t in prange(threads):
-            marked = 0
-            # (an int64 copy of t: a prange index may be unsigned, and int64 with uint64 unifies to float)
-            q = -1 if t == 0 else np.int64(t)  # thread 0 first advances slab 0: complete after the even pass
-            while q < slabs // 2:
-                s0 = 0
-                s1 = 1
-                if q >= 0:
-                    s0 = 1 + 2 * q
-                    _slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, pairs[t])
-                    s1 = min(s0 + 2, slabs)  # this slab and the next, contiguous in storage
-                m = _advance(
-                    integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, has_ext, sm, xref, escaped, half2, g
-                )
-                marked = -1 if (m < 0 or marked < 0) else marked + m
-                q = np.int64(t) if q < 0 else q + threads
-            moved[t] = marked
+            moved[t] = _odd_slabs_and_advance(
+                integ,
+                dt,
+                t,
+                threads,
+                slabs,
+                layer,
+                start,
+                xs,
+                vs,
+                a,
+                es,
+                has_ext,
+                nbr,
+                cnt,
+                near,
+                sm,
+                g,
+                xref,
+                escaped,
+                ne,
+                pairs[t],
+                half2,
+            )
         taken += 1
-        # collect the newly escaped slots in storage order; rebuild when they no longer fit, or
-        # at once when a position is not finite
-        fresh = 0
-        for t in range(threads):
-            if moved[t] < 0:
-                lw.state[0] = 0
-            fresh += moved[t]
-        if lw.state[0] != 0 and fresh > 0:
-            for i in range(n):
-                if escaped[i] == 1:
-                    escaped[i] = 2
-                    if ne < escapes.shape[0]:
-                        escapes[ne] = i
-                    ne += 1
-            if ne > escapes.shape[0]:
-                lw.state[0] = 0
-        lw.state[3] = ne
+        _collect_escapes(lw, moved, threads, ne)
         advance_shapes(full.shapes, 0, dt, D)  # kinematic shapes move on (nothing if none)
     for i in prange(n):
         u = perm[i]
@@ -324,118 +404,10 @@ def _serial_twin(fn: Any, name: str, entry: bool = False, **callees: Any) -> Any
 
 permute_rows_serial = _serial_twin(permute_rows, "permute_rows_serial")
 build_list_serial = _serial_twin(build_list, "build_list_serial")
+_rebuild_serial = _serial_twin(
+    _rebuild, "_rebuild_serial", permute_rows=permute_rows_serial, build_list=build_list_serial
+)
 # ``run_large`` on the calling thread alone, ``threads`` = 1: no parallel region, the GIL released;
 # the same result as ``run_large``, bit for bit (the runner steps a batch of worlds so, a share of
 # the worlds per thread, and a small world alone)
-run_large_serial = _serial_twin(
-    run_large, "run_large_serial", entry=True, permute_rows=permute_rows_serial, build_list=build_list_serial
-)
-
-
-class NeighbourLists:
-    """One neighbour list (:class:`~..broadphase.verlet.LargeWorld`) per world of a batch, and its
-    stepping.
-
-    ``model`` is the World's :class:`~..model.Model`; each world gets a
-    :class:`~..broadphase.verlet.SlimModel` of it whose radii and inverse masses follow its storage
-    order, and whose cell size is wide enough for the list's reach, and a full Model sharing those
-    arrays, with its own world's shape table, for the serial passes.
-    """
-
-    def __init__(self, model: Any, B: int, n: int, d: int, threads: int) -> None:
-        self.n, self.d = n, d
-        self.threads = max(1, threads)
-        self.radii = np.array(model.radii)
-        self.inv_mass = np.array(model.inv_mass)
-        self.skin = NEIGHBOUR_SKIN * 2.0 * float(self.radii.max())
-        self.worlds: list[tuple[Any, SlimModel]] = []
-        self.full: list[Any] = []  # per world: its Model with its own shape table (world b's as world 0)
-        self._entries: dict[bool, Any] = {}  # run_large_serial's compiled entry, by whether ext is given
-        for b in range(B):
-            radii, inv_mass = self.radii.copy(), self.inv_mass.copy()  # permuted with the storage
-            cell = model.cell_size + self.skin
-            core = SlimModel.of(model, radii=radii, inv_mass=inv_mass, cell_size=cell)
-            self.worlds.append((self._new(4 * (d - 1) ** 2 + 5), core))
-            self.full.append(
-                model._replace(radii=radii, inv_mass=inv_mass, cell_size=cell, shapes=model.shapes.world(b))
-            )
-        self.reset()
-
-    def _new(self, cap: int) -> Any:
-        escapes = int(np.clip(self.n // 256, 64, LARGE_WORLD_MAX_ESCAPES))
-        return new_large_world(self.n, self.d, cap, self.threads, escapes, PAIR_ROWS, PAIR_BLOCK, self.skin)
-
-    def reset(self, worlds: Any = slice(None)) -> None:
-        """A world's storage order and list are history: after new state, start afresh, so the
-        world steps exactly as a new World made from that state would."""
-        for b in np.atleast_1d(np.arange(len(self.worlds))[worlds]):
-            lw, model = self.worlds[b]
-            lw.perm[:] = np.arange(self.n)
-            lw.state[0] = 0
-            model.radii[:] = self.radii
-            model.inv_mass[:] = self.inv_mass
-
-    def step(
-        self,
-        integ: int,
-        n: int,
-        dt: float,
-        x: np.ndarray,
-        v: np.ndarray,
-        ext: np.ndarray,
-        has_ext: bool,
-        g: tuple,
-        status: np.ndarray,
-        worlds: Any = None,
-        serial: bool = False,
-    ) -> None:
-        """Advance ``worlds`` (default: every world) by n steps, world after world: each parallel
-        over its balls (:func:`run_large`) or, with ``serial``, on the calling thread alone
-        (:func:`run_large_serial`, releasing the GIL: the runner steps a batch so, a share of the
-        worlds per thread). Both give the same result, bit for bit."""
-        for b in range(len(self.worlds)) if worlds is None else worlds:
-            w = slice(b, b + 1)
-            done = 0
-            while done < n:
-                lw, model = self.worlds[b]
-                if serial:
-                    args = (integ, n - done, dt, x[w], v[w], ext[w], has_ext, model, g, status[w], lw, 1, self.full[b])
-                    done += self._serial_entry(args)(*args)
-                else:
-                    threads = self.threads
-                    done += run_large(
-                        integ, n - done, dt, x[w], v[w], ext[w], has_ext, model, g, status[w], lw, threads, self.full[b]
-                    )
-                if status[b] != STATUS_OK:
-                    break
-                if done < n:  # a ball has more neighbours than the list holds: grow it, go on
-                    grown = self._new(int(lw.state[1]) + 9)
-                    for field in ("perm", "state"):
-                        getattr(grown, field)[:] = getattr(lw, field)
-                    self.worlds[b] = (grown, model)
-
-    def _serial_entry(self, args: tuple) -> Any:
-        """:func:`run_large_serial` compiled for these argument types, called without Numba's
-        per-call type resolution (a microsecond per field of each NamedTuple argument, paid per
-        world and call). Every argument's type is fixed by the World."""
-        entry = self._entries.get(True)
-        if entry is None:
-            entry = self._entries[True] = entry_point(run_large_serial, args)
-        return entry
-
-    def stats(self, b: int = 0) -> dict:
-        """World b's list: ``builds`` so far, balls ``escaped`` now, ``listed_per_ball`` (mean listed
-        neighbours at the last build), ``largest`` (the most any ball had), ``capacity`` (slots per
-        ball), ``near_terrain`` (per ball, in the user's order: within a skin of a shape at the build,
-        so tested against the terrain until it escapes)."""
-        lw = self.worlds[b][0]
-        near = np.zeros(self.n, dtype=bool)
-        near[lw.perm] = lw.near != 0
-        return {
-            "builds": int(lw.state[2]),
-            "escaped": int(lw.state[3]),
-            "listed_per_ball": float(lw.count.mean()),
-            "largest": int(lw.state[1]),
-            "capacity": int(lw.nbr.shape[1]),
-            "near_terrain": near,
-        }
+run_large_serial = _serial_twin(run_large, "run_large_serial", entry=True, _rebuild=_rebuild_serial)

@@ -10,7 +10,7 @@
 * a World's stepping path (:data:`PATHS`) and its buffers: ``scalar`` (one world at a time per
   thread, :func:`.scalar.run_worlds`, or the event-located :func:`.events.run_worlds`), ``lanes``
   (a block of worlds per SIMD vector, :func:`.lanes.run_lanes`) and ``neighbour_list`` (a Verlet
-  list per world, :class:`.large.NeighbourLists`).
+  list per world, :class:`.neighbour_lists.NeighbourLists`).
 
 The scalar and lanes paths are also reached from other kernels through :func:`advance`, on the
 runner's own :class:`Physics` bundle: the environments step their worlds inside their own kernel
@@ -38,7 +38,8 @@ from . import events as _events
 from . import lanes as _lanes
 from . import scalar as _scalar
 from .common import Scratch, new_scratch
-from .large import EXPLICIT_EULER, SERIAL_MAX_BALLS, SYMPLECTIC_EULER, NeighbourLists
+from .large import EXPLICIT_EULER, SERIAL_MAX_BALLS, SYMPLECTIC_EULER
+from .neighbour_lists import NeighbourLists
 
 __all__ = [
     "PATHS",

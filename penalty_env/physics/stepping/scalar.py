@@ -18,7 +18,6 @@ from .spin_steps import spin_tick
 __all__ = ["run_worlds", "begin_world", "world_status", "external"]
 
 
-
 def begin_world(work, b):
     """Reset what a driver call reports per world (implicit Euler: the convergence flag)."""
     raise NotImplementedError("begin_world is called from jitted code")

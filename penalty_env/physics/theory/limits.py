@@ -1,242 +1,36 @@
-"""Closed forms for a linear spring-dashpot contact, and integrator stability limits.
+"""Integrator limits on a linear spring-dashpot contact: the stability boundary of each method, the
+guard's step, and the mean energy gain per collision (docs/physics.md sections 4 and 6).
 
-Units are whatever the caller uses consistently (SI in the examples): ``ks`` force per length,
-``kd`` force per speed, ``m_eff`` mass. ``m_eff = m_i m_j / (m_i + m_j)`` for a pair of balls and
-``m_eff = m_i`` for a ball against static terrain (docs/physics.md section 3).
-
-The contact is the seed's: the spring and the dashpot act while the overlap is positive and the
-contact ends when the overlap returns to zero, so for ``zeta >= 1`` it never ends (``e = 0``).
+Units as in :mod:`.closed_forms`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import non_negative as _non_negative
-from .._validate import positive as _positive
+from ..._validate import non_negative as _non_negative
+from ..._validate import positive as _positive
+from .closed_forms import DAMPING_MODES, INTEGRATORS, damping_ratio, natural_frequency
 
 __all__ = [
-    "INTEGRATORS",
-    "DAMPING_MODES",
-    "effective_mass",
-    "ContactResponse",
-    "contact_response",
-    "restitution_for_zeta",
-    "zeta_for_restitution",
-    "peak_overlap_ratio",
-    "natural_frequency",
-    "damping_ratio",
-    "restitution",
-    "contact_time",
-    "damping_for_restitution",
-    "peak_overlap",
-    "resting_overlap",
-    "stiffness_for_penetration",
+    "amplification_matrix",
     "critical_omega_dt",
     "critical_dt",
-    "amplification_matrix",
+    "GUARD_SAFETY",
+    "PACKING_MODE",
+    "guard_omega_dt",
+    "guard_dt",
+    "ENERGY_BUDGET",
+    "ENERGY_PHASES",
+    "energy_gain_per_collision",
+    "energy_gain_envelope",
+    "energy_omega_dt",
+    "energy_dt",
 ]
 
-INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
-DAMPING_MODES = ("linear", "no_tension")
 
-
-def effective_mass(m_i: float, m_j: float) -> float:
-    """m_eff = m_i m_j / (m_i + m_j) of a pair (a ball against static terrain: m_eff = m_i)."""
-    return m_i * m_j / (m_i + m_j)
-
-
-def natural_frequency(ks: float, m_eff: float) -> float:
-    """omega0 = sqrt(ks / m_eff), rad per unit time."""
-    return math.sqrt(_positive("ks", ks) / _positive("m_eff", m_eff))
-
-
-def damping_ratio(ks: float, kd: float, m_eff: float) -> float:
-    """zeta = kd / (2 sqrt(ks m_eff)); 0 undamped, 1 critically damped."""
-    return _non_negative("kd", kd) / (2.0 * math.sqrt(_positive("ks", ks) * _positive("m_eff", m_eff)))
-
-
-def restitution(ks: float, kd: float, m_eff: float) -> float:
-    """Normal coefficient of restitution e = exp(-pi zeta / sqrt(1 - zeta^2)) (0 when zeta >= 1)."""
-    return restitution_for_zeta(damping_ratio(ks, kd, m_eff))
-
-
-def contact_time(ks: float, kd: float, m_eff: float) -> float:
-    """Contact duration t_c = pi / omega_d, omega_d = omega0 sqrt(1 - zeta^2) (inf when zeta >= 1)."""
-    zeta = damping_ratio(ks, kd, m_eff)
-    if zeta >= 1.0:
-        return math.inf
-    return math.pi / (natural_frequency(ks, m_eff) * math.sqrt(1.0 - zeta * zeta))
-
-
-def damping_for_restitution(e: float, ks: float, m_eff: float) -> float:
-    """The kd that gives restitution ``e`` in (0, 1]: zeta = -ln e / sqrt(pi^2 + ln^2 e).
-
-    Same as LIGGGHTS' gamma_n = sqrt(4 m_eff k_n / (1 + (pi / ln e)^2)).
-    """
-    zeta = zeta_for_restitution(e)
-    return 2.0 * zeta * math.sqrt(_positive("ks", ks) * _positive("m_eff", m_eff))
-
-
-def peak_overlap(ks: float, m_eff: float, v_n: float) -> float:
-    """Largest overlap of an undamped contact hit at normal speed v_n: v_n / omega0."""
-    return abs(float(v_n)) / natural_frequency(ks, m_eff)
-
-
-def resting_overlap(m: float, g: float, ks: float) -> float:
-    """Overlap of a ball resting on terrain under gravity: m g / ks."""
-    return _positive("m", m) * abs(float(g)) / _positive("ks", ks)
-
-
-def stiffness_for_penetration(m_eff: float, v: float, delta_tol: float) -> float:
-    """Smallest ks that keeps the overlap of an impact at speed v under delta_tol: m v^2 / delta^2."""
-    return _positive("m_eff", m_eff) * float(v) ** 2 / _positive("delta_tol", delta_tol) ** 2
-
-
-# --- the exact solution of one contact, either damping mode, optional gravity --------------------
-# (the oracle of the accuracy benchmark, of configure and of the tests)
-
-
-@dataclass(frozen=True)
-class ContactResponse:
-    """One contact hit at normal speed v (units: omega0 = 1, v = 1).
-
-    restitution: exit speed / impact speed; duration: omega0 x the time from first touch to the
-    overlap's return to zero; peak_overlap: omega0 / v x the largest overlap.
-    """
-
-    restitution: float
-    duration: float
-    peak_overlap: float
-
-
-def _first_root(f: Callable[[np.ndarray], np.ndarray], t_max: float, n: int = 4000) -> float:
-    """First t in (0, t_max] where f changes sign (from its sign just after 0), to machine precision."""
-    ts = np.linspace(0.0, t_max, n + 1)[1:]
-    vals = f(ts)
-    s0 = np.sign(vals[0])
-    idx = np.flatnonzero(np.sign(vals) != s0)
-    if idx.size == 0:
-        return math.inf
-    k = int(idx[0])
-    lo = ts[k - 1] if k > 0 else 0.5 * ts[0]
-    hi = ts[k]
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if np.sign(f(np.array([mid]))[0]) == s0:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 4e-16 * hi:
-            break
-    return 0.5 * (lo + hi)
-
-
-def contact_response(zeta: float, damping: str = "linear", gravity_ratio: float = 0.0) -> ContactResponse:
-    """Exact solution of delta'' + 2 zeta delta' + delta = gamma, delta(0) = 0, delta'(0) = 1
-    (overlap delta in units of v / omega0, time in 1 / omega0; gamma = g / (omega0 v) is gravity
-    pressing into the contact, 0 for a collision in free space).
-
-    ``linear``: the contact lasts until the overlap returns to zero (the seed's law).
-    ``no_tension``: the force ks delta + kd delta' is clipped at zero, so the contact stops pushing
-    when ks delta + kd delta' = 0 and the bodies then fly apart (under gravity) until the overlap is zero.
-    Raises ValueError if the contact never ends (zeta >= 1 for the linear law, or gravity too strong).
-    """
-    if damping not in DAMPING_MODES:
-        raise ValueError(f"damping must be one of {DAMPING_MODES}, got {damping!r}")
-    zeta = float(zeta)
-    gamma = float(gravity_ratio)
-    if not (0.0 <= zeta < 1.0):
-        raise ValueError(f"zeta must be in [0, 1) for a contact that ends, got {zeta!r}")
-    wd = math.sqrt(1.0 - zeta * zeta)
-    A = -gamma
-    Bc = (1.0 + zeta * A) / wd
-    D = -zeta * Bc - wd * A
-
-    def delta(t: np.ndarray) -> np.ndarray:
-        return gamma + np.exp(-zeta * t) * (A * np.cos(wd * t) + Bc * np.sin(wd * t))
-
-    def ddelta(t: np.ndarray) -> np.ndarray:
-        return np.exp(-zeta * t) * (np.cos(wd * t) + D * np.sin(wd * t))
-
-    t_max = 2.0 * math.pi / wd
-    t_peak = _first_root(ddelta, t_max)
-    peak = float(delta(np.array([t_peak]))[0])
-    if damping == "linear" or zeta == 0.0:
-        # delta starts at 0 and grows: look for its return through zero after the peak
-        t_end = t_peak + _first_root(lambda t: delta(t + t_peak), t_max)
-        if not math.isfinite(t_end):
-            raise ValueError("the contact never ends (gravity holds the ball in contact)")
-        exit_speed = -float(ddelta(np.array([t_end]))[0])
-        return ContactResponse(exit_speed, t_end, peak)
-    # no tension: contact force ks delta + kd delta' (units m omega0^2) hits zero first
-    t_clip = _first_root(lambda t: delta(t) + 2.0 * zeta * ddelta(t), t_max)
-    if not math.isfinite(t_clip):
-        raise ValueError("the contact never ends (gravity holds the ball in contact)")
-    d1 = float(delta(np.array([t_clip]))[0])
-    v1 = float(ddelta(np.array([t_clip]))[0])  # < 0: separating
-    disc = v1 * v1 - 2.0 * gamma * d1
-    if v1 >= 0.0 or disc < 0.0:
-        raise ValueError("the contact never ends (gravity pulls the ball back before it leaves)")
-    exit_speed = math.sqrt(disc)
-    flight = (d1 / -v1) if gamma == 0.0 else (-v1 - exit_speed) / gamma
-    return ContactResponse(exit_speed, t_clip + flight, peak)
-
-
-def peak_overlap_ratio(zeta: float, gravity_ratio: float = 0.0) -> float:
-    """Largest overlap of a contact hit at speed v, in units of v / omega0 (1 when undamped without
-    gravity; either damping mode: the no-tension clip acts only after the peak)."""
-    zeta = float(zeta)
-    gamma = float(gravity_ratio)
-    if not (0.0 <= zeta < 1.0):
-        raise ValueError(f"zeta must be in [0, 1), got {zeta!r}")
-    wd = math.sqrt(1.0 - zeta * zeta)
-    A = -gamma
-    Bc = (1.0 + zeta * A) / wd
-    D = -zeta * Bc - wd * A
-    t_peak = _first_root(lambda t: np.exp(-zeta * t) * (np.cos(wd * t) + D * np.sin(wd * t)), 2.0 * math.pi / wd)
-    return float(gamma + math.exp(-zeta * t_peak) * (A * math.cos(wd * t_peak) + Bc * math.sin(wd * t_peak)))
-
-
-def restitution_for_zeta(zeta: float, damping: str = "linear") -> float:
-    """Coefficient of restitution of a contact of damping ratio zeta (no gravity)."""
-    if damping == "linear":
-        if zeta >= 1.0:
-            return 0.0
-        return math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta * zeta))
-    return contact_response(zeta, damping).restitution
-
-
-def zeta_for_restitution(e: float, damping: str = "linear") -> float:
-    """The damping ratio that gives restitution e in (0, 1] (inverse of :func:`restitution_for_zeta`)."""
-    e = float(e)
-    if not (math.isfinite(e) and 0.0 < e <= 1.0):
-        raise ValueError(f"restitution must be in (0, 1], got {e!r}")
-    log_e = math.log(e)
-    z_lin = -log_e / math.sqrt(math.pi**2 + log_e**2)
-    if damping == "linear" or e == 1.0:
-        return z_lin
-    if damping not in DAMPING_MODES:
-        raise ValueError(f"damping must be one of {DAMPING_MODES}, got {damping!r}")
-    # no tension ends the contact earlier, so it needs more damping for the same e; e(zeta) is
-    # decreasing: bisect on [0, 0.999]
-    lo, hi = 0.0, 0.999
-    if restitution_for_zeta(hi, damping) > e:
-        raise ValueError(f"restitution {e} is below what the no-tension law can reach with zeta < 1")
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        if restitution_for_zeta(mid, damping) > e:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
-
-
-# --- stability -------------------------------------------------------------------------------
 # Each explicit integrator applied to the damped oscillator x'' = -omega^2 x - 2 zeta omega x' is a
 # linear map of its state; it is stable while the spectral radius of that map is <= 1. We compute
 # the boundary from the map itself, so the limit matches the implementation exactly (including
