@@ -311,9 +311,15 @@ def _load_without_refresh() -> None:
 _load_without_refresh()
 
 
-def njit(*args, entry: bool = False, **kwargs):
-    """``numba.njit`` for this package's kernels. Use as ``@njit``, ``@njit(entry=True)`` or
-    ``@njit(entry=True, parallel=True)``.
+def njit(*args, entry: bool = False, hot: bool = False, **kwargs):
+    """``numba.njit`` for this package's kernels. Use as ``@njit``, ``@njit(hot=True)``,
+    ``@njit(entry=True)`` or ``@njit(entry=True, parallel=True)``.
+
+    ``hot``: LLVM always inlines the kernel into its callers (``forceinline``: the IR is copied by
+    LLVM, after Numba compiled the kernel once, so the front end pays nothing). For the kernels
+    called once per contact or pair: a call that is not inlined passes every array of its tuple
+    arguments (a Model, a shape table) by value, field by field (measured: 20x a rotating pair's
+    cost), and LLVM's own heuristics leave a large callee out of line.
 
     A kernel called from Python is an *entry* (``entry=True``): it is cached on disk (falling back
     to no cache where no folder is writable) and its call tree is linked and optimised into it. Every
@@ -324,6 +330,7 @@ def njit(*args, entry: bool = False, **kwargs):
     """
     kwargs.setdefault("error_model", "numpy")
     kwargs.setdefault("_nrt", False)  # kernels never allocate: see the module docstring
+    kwargs["forceinline"] = bool(hot) and not entry  # (set either way: Numba's callees inherit it)
     if entry:
         kwargs.setdefault("cache", True)
     else:
@@ -352,9 +359,10 @@ def njit(*args, entry: bool = False, **kwargs):
     return decorate
 
 
-def overload_kernel(func: Any) -> Any:
+def overload_kernel(func: Any, hot: bool = False) -> Any:
     """``numba.extending.overload(func)`` for this package: the implementation it returns is a
-    callee kernel (see :func:`njit`): no wrappers, no cache entry of its own."""
+    callee kernel (see :func:`njit`): no wrappers, no cache entry of its own; ``hot`` as for
+    :func:`njit` (a dispatching overload called per world and step: inlined)."""
 
     def decorate(typer: Any) -> Any:
         @functools.wraps(typer)
@@ -364,7 +372,13 @@ def overload_kernel(func: Any) -> Any:
                 _KERNELS.add(impl.__qualname__)
             return impl
 
-        options = {"error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+        options = {
+            "error_model": "numpy",
+            "_nrt": False,
+            "no_cpython_wrapper": True,
+            "no_cfunc_wrapper": True,
+            "forceinline": bool(hot),
+        }
         return _overload(func, jit_options=options)(registering)
 
     return decorate

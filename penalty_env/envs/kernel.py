@@ -120,12 +120,12 @@ def new_buffers(n_worlds: int, obs_size: int, status: np.ndarray) -> StepBuffers
     )
 
 
-@njit
+@njit(hot=True)
 def _clip(value, lo, hi):
     return min(max(value, lo), hi)
 
 
-@njit
+@njit(hot=True)
 def _distances(b, x, goal, task, D):
     """(ball-goal distance, pusher-push-point distance) of world b.
 
@@ -145,7 +145,7 @@ def _distances(b, x, goal, task, D):
     return dg, math.sqrt(dp2)
 
 
-@njit
+@njit(hot=True)
 def observe(b, x, v, goal, obs, table, bounds, D):
     """Write world b's observation, clipped to ``bounds`` ((2, size): low, high).
 
@@ -173,7 +173,7 @@ def observe(b, x, v, goal, obs, table, bounds, D):
             obs[b, base + D + k] = _clip(v[b, j, k], lo[base + D + k], hi[base + D + k])
 
 
-@njit
+@njit(hot=True)
 def _throttle_scale(act, b, na):
     """The throttle a is clipped to [-1, 1] per axis and then to the unit disc (this factor), so
     the self-driven speed |v| = |a| v_max never exceeds v_max."""
@@ -184,7 +184,7 @@ def _throttle_scale(act, b, na):
     return 1.0 / math.sqrt(a2) if a2 > 1.0 else 1.0
 
 
-@njit
+@njit(hot=True)
 def _refuse_bad_action(worlds, act, stepping):
     """-(1 + b) for the first stepping world b of ``worlds`` whose action is NaN or inf, else 0."""
     for t in range(worlds.shape[0]):
@@ -196,7 +196,7 @@ def _refuse_bad_action(worlds, act, stepping):
     return 0
 
 
-@njit
+@njit(hot=True)
 def _reward(b, stepped, dg, dp, task, buf):
     """World b's reward terms, success and shaping potentials from its distances ``dg`` (ball to
     goal) and ``dp`` (pusher to push point); a world just reset (not ``stepped``) gets no reward."""
@@ -263,7 +263,7 @@ def observe_sand(b, x, model, obs, hm, D):
             obs[b, hm.offset + c] = depth
 
 
-@njit
+@njit(hot=True)
 def _max_overlap(b, x, phys, D):
     """World b's largest overlap / the smaller radius, over every contact (through the World's
     grid, built for x, where it has one)."""
@@ -272,7 +272,7 @@ def _max_overlap(b, x, phys, D):
     return deepest_contact(b, x, phys.grid, phys.scratch.partners[b], phys.model, D)
 
 
-@njit
+@njit(hot=True)
 def _act(ids, act, throttle):
     """The actions of the worlds ``ids`` as the pusher motor's throttles: each component clipped
     to [-1, 1], then the vector to the unit disc (so the self-driven speed |v| = |a| v_max never

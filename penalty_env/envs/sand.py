@@ -138,7 +138,9 @@ def settled_bed(scene: Any) -> np.ndarray:
         kw.update(rotation=True, mu_r=p["rolling_resistance"])
     else:
         kw.update(kf=scene.kf)
-    world = World(scene.grain_lattice(), scene.radii[g:], scene.masses[g:], dt=scene.dt, **kw, **common)
+    # (the lattice holds the grains apart: no start check)
+    lattice = scene.grain_lattice()
+    world = World(lattice, scene.radii[g:], scene.masses[g:], dt=scene.dt, start_check=False, **kw, **common)
     chunk = max(1, int(round(0.25 / scene.dt)))
     t = 0.0
     speed = math.inf

@@ -190,7 +190,9 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         # with grains the bodies (few, large) meet every ball directly; the grains meet each other
         # through a grid of the grains' own size (its lead balls): cells of the pusher's size would
         # hold ~(r_pusher / r_grain)^3 grains each
-        own = dict(common, stepping=stepping, motors=[motor], grid_lead=self.n_bodies if n_grains else 0)
+        # (no start check: the resets place every ball clear of the others and on the terrain)
+        lead = self.n_bodies if n_grains else 0
+        own = dict(common, stepping=stepping, motors=[motor], grid_lead=lead, start_check=False)
         if self.rolling:
             self.world = World(
                 start,

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from .._jit import njit
 from .broadphase.grid import build_grid, uses_cells
-from .broadphase.partners import partners
+from .broadphase.partners import partner, partners
 from .contact.pair import pair_overlap
 from .contact.terrain import terrain_measure
 
@@ -22,24 +22,29 @@ def contact_energy(b, x, grid, buf, model, D):
     """The penalty springs' energy of world b: 1/2 ks overlap^2 over every contact."""
     e = 0.0
     for i in range(x.shape[1]):
-        m = partners(b, i, x, grid, buf, D)
-        for t in range(m):
-            ov = pair_overlap(b, i, buf[t], x, model, D)
-            e += 0.5 * model.ks * ov * ov
+        rows, direct = partners(b, i, x, grid, buf, D)
+        for r in range(rows):
+            for idx in range(buf[2 * r], buf[2 * r + 1]):
+                j = partner(grid, b, idx, direct)
+                if j > i:
+                    ov = pair_overlap(b, i, j, x, model, D)
+                    e += 0.5 * model.ks * ov * ov
         e += terrain_measure(b, i, x, model, D)[0]
     return e
 
 
-@njit
+@njit(hot=True)
 def deepest_contact(b, x, grid, buf, model, D):
     """World b's largest overlap as a fraction of the smaller radius in contact (0 without contact)."""
     deepest = 0.0
     for i in range(x.shape[1]):
-        m = partners(b, i, x, grid, buf, D)
-        for t in range(m):
-            j = buf[t]
-            ov = pair_overlap(b, i, j, x, model, D)
-            deepest = max(deepest, ov / min(model.radii[i], model.radii[j]))
+        rows, direct = partners(b, i, x, grid, buf, D)
+        for r in range(rows):
+            for idx in range(buf[2 * r], buf[2 * r + 1]):
+                j = partner(grid, b, idx, direct)
+                if j > i:
+                    ov = pair_overlap(b, i, j, x, model, D)
+                    deepest = max(deepest, ov / min(model.radii[i], model.radii[j]))
         deepest = max(deepest, terrain_measure(b, i, x, model, D)[1])
     return deepest
 

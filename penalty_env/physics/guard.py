@@ -54,6 +54,7 @@ class StabilityGuard:
     dt_max: float
     dt_energy: float
     allow_unstable: bool
+    start_check: bool
     _batched: bool
     _deepest: np.ndarray
     _state: Any
@@ -172,7 +173,7 @@ class StabilityGuard:
         spring would release 1/2 ks overlap^2 as a speed that drives any contact as stiff through a
         ball, so the energy of the scene is not what the state says (coincident centres are the
         extreme case). ``allow_unstable=True`` silences it."""
-        if self.allow_unstable or worlds.size == 0:
+        if self.allow_unstable or not self.start_check or worlds.size == 0:
             return
         frac = self._deepest[: worlds.size]
         self._max_penetration_of(worlds, frac)

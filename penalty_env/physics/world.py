@@ -115,6 +115,10 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
             force-speed law, ``max_force (throttle - v / max_speed)``, re-evaluated at every step;
             :meth:`step` takes their throttles). Scalar and lanes stepping.
         allow_unstable: skip the stability guard (for stability studies).
+        start_check: warn (:class:`StartOverlapWarning`) when a state given here or to
+            :meth:`set_state` has two balls, or a ball and the terrain, overlapping by the smaller
+            radius or more. On by default; a caller whose placement cannot overlap (the envs) turns
+            it off, and spares its compile and its cost per reset.
         events: event-located stepping (:mod:`penalty_env.physics.stepping.events`): each step
             stops at every contact switch (a contact beginning or ending) and crosses it, which
             restores the integrator's order (RK4: 4th order instead of 1st with damping) at the
@@ -147,6 +151,7 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
         broadphase: str = "auto",
         stepping: str = "auto",
         allow_unstable: bool = False,
+        start_check: bool = True,
         events: bool = False,
         rotation: bool = False,
         tangential: str = "coulomb",
@@ -172,6 +177,7 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
         self.dt = V.positive("dt", dt)
         self.broadphase = V.choice("broadphase", broadphase, BROADPHASES)
         self.allow_unstable = V.flag("allow_unstable", allow_unstable)
+        self.start_check = V.flag("start_check", start_check)
         self.events = V.flag("events", events)
         self.rotation = V.flag("rotation", rotation)
         self.tangential = V.choice("tangential", tangential, TANGENTIAL)

@@ -3,6 +3,7 @@ the diagnostics of a state (energy, penetration, momenta)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -31,6 +32,8 @@ class StateAccess:
     stepping: str
     gravity: tuple
     masses: np.ndarray
+    _check_start: Callable[[np.ndarray], None]  # the guard's start-overlap warning
+    _max_penetration_of: Callable[[np.ndarray, np.ndarray], None]  # World's diagnostics entry
 
     @property
     def n_worlds(self) -> int:

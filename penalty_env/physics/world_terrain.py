@@ -36,6 +36,7 @@ class TerrainAccess:
     _runner: Any
     n_worlds: int
     dim: int
+    gravity: tuple
     _world_index: Any
 
     def _slot(self, shape: Any) -> tuple[int, int]:

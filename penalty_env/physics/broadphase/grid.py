@@ -73,13 +73,13 @@ def no_grid() -> Grid:
     )
 
 
-@njit
+@njit(hot=True)
 def uses_cells(grid):
     """Whether the grid sorts balls into cells (else every pair is tested)."""
     return grid.start.shape[1] > 0
 
 
-@njit
+@njit(hot=True)
 def _cell_coord(xk, lo, inv_h, nk):
     """Cell index along one axis, clamped to [0, nk); NaN lands in cell 0."""
     q = (xk - lo) * inv_h
@@ -155,7 +155,7 @@ def build_grid(b, x, grid, cell_size, D):
     return finite
 
 
-@njit
+@njit(hot=True)
 def cell_span(b, i, x, grid, D):
     """The 3^D cell neighbourhood of ball i as rows: each (y, z) row is one contiguous range of
     ``grid.items``. Returns x0, x1 (the row's cell span), the y and z spans, and the cells per x

@@ -21,8 +21,8 @@ import numpy as np
 
 from ..._jit import njit, prange
 from ..geometry.table import DIRECT, P0, SIGN
-from .grid import Grid, new_grid
-from .partners import cell_partners
+from .grid import Grid, cell_span, new_grid
+from .partners import later_slots
 
 __all__ = ["SlimModel", "LargeWorld", "new_large_world", "build_list", "permute_rows"]
 
@@ -138,32 +138,35 @@ def permute_rows(src, order, tmp):
             src[0, i, k] = tmp[i, k]
 
 
-@njit
-def _list_neighbours(i, grid, xs, sm, nbr, cand, skin, D):
+@njit(hot=True)
+def _list_neighbours(i, grid, xs, sm, nbr, skin, D):
     """Write ball i's neighbours j > i within r_i + r_j + skin to ``nbr[i]`` in the grid's order (as
     many as fit below its last column, which takes the rejects); return how many there are: each
-    pair is listed once, by its lower slot. Branch-free: every candidate is written and the count
-    advances only for a neighbour."""
+    pair is listed once, by its lower slot. The storage is in the grid's cell order, so the
+    candidates are the pair-visiting service's slot ranges (:func:`.partners.later_slots`).
+    Branch-free: every candidate is written and the count advances only for a neighbour."""
     last = nbr.shape[1] - 1
-    m = cell_partners(0, i, xs, grid, True, cand, D)
+    x0, x1, y0, y1, z0, z1, nx, ny = cell_span(0, i, xs, grid, D)
     count = 0
     reach = sm.radii[i] + skin
     p0 = xs[0, i, 0]
     p1 = xs[0, i, 1]
     p2 = xs[0, i, 2] if D == 3 else 0.0
-    for t in range(m):
-        j = cand[t]
-        cut = reach + sm.radii[j]
-        d0 = xs[0, j, 0] - p0
-        d1 = xs[0, j, 1] - p1
-        d2 = xs[0, j, 2] - p2 if D == 3 else 0.0
-        near = d0 * d0 + d1 * d1 + d2 * d2 < cut * cut
-        nbr[i, min(count, last)] = j
-        count += 1 if near else 0
+    for qz in range(z0, z1):
+        for qy in range(y0, y1):
+            lo, hi = later_slots(grid, 0, (qz * ny + qy) * nx, x0, x1, i)
+            for j in range(lo, hi):
+                cut = reach + sm.radii[j]
+                d0 = xs[0, j, 0] - p0
+                d1 = xs[0, j, 1] - p1
+                d2 = xs[0, j, 2] - p2 if D == 3 else 0.0
+                near = d0 * d0 + d1 * d1 + d2 * d2 < cut * cut
+                nbr[i, min(count, last)] = j
+                count += 1 if near else 0
     return count
 
 
-@njit
+@njit(hot=True)
 def _near_rounds(i, xs, sm, reach, D):
     """1 unless ball i's surface is at least ``reach`` clear of every static sphere and bowl
     (phi(c_i) - r_i >= reach; a position that is not finite counts as near)."""
@@ -193,7 +196,7 @@ def build_list(grid, xs, sm, lw, threads, g):
         # (an int64 copy of t: a prange index may be unsigned, and int64 with uint64 unifies to float)
         first = np.int64(t)
         for i in range(first, n, threads):
-            cnt[i] = _list_neighbours(i, grid, xs, sm, nbr, cand[first], skin, D)
+            cnt[i] = _list_neighbours(i, grid, xs, sm, nbr, skin, D)
             # a ball that has not escaped is within skin / 2 of xref, and phi is 1-Lipschitz: a
             # clearance of a skin at the build means no terrain contact until it escapes
             near[i] = _near_rounds(i, xs, sm, skin, D)

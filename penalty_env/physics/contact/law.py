@@ -50,7 +50,7 @@ from ..._jit import njit
 __all__ = ["normal_force", "regularised_ratio", "history_spring", "turn_into_plane", "lever", "cross"]
 
 
-@njit
+@njit(hot=True)
 def normal_force(ks, kd, pen, vn, no_tension):
     """The normal force along the outward normal of the pushing body: ``ks pen - kd vn`` for an
     overlap ``pen`` and a separation rate ``vn`` (> 0 opening); 0 instead of a pull when
@@ -61,7 +61,7 @@ def normal_force(ks, kd, pen, vn, no_tension):
     return fn
 
 
-@njit
+@njit(hot=True)
 def regularised_ratio(slope, mu, fn, speed2):
     """``|f| / |u|`` of a regularised Coulomb law, ``|f| = min(slope |u|, mu |f_n|)`` against a
     relative motion u of squared size ``speed2`` (0 when at rest). Friction: u the sliding
@@ -72,7 +72,7 @@ def regularised_ratio(slope, mu, fn, speed2):
     return ratio if speed2 > 0.0 else 0.0
 
 
-@njit
+@njit(hot=True)
 def turn_into_plane(x0, x1, x2, n0, n1, n2):
     """A continuing contact's spring displacement turned into the current tangent plane (normal
     n), its length kept."""
@@ -90,7 +90,7 @@ def turn_into_plane(x0, x1, x2, n0, n1, n2):
     return x0, x1, x2
 
 
-@njit
+@njit(hot=True)
 def history_spring(x0, x1, x2, s0, s1, s2, fn, kt, kd_t, mu, dt):
     """One step of the tangential spring with history: the displacement xi (already in the tangent
     plane; zero for a new contact) grows by the slip s dt, the force is ``-kt xi - kd_t s``, capped
@@ -114,14 +114,14 @@ def history_spring(x0, x1, x2, s0, s1, s2, fn, kt, kd_t, mu, dt):
     return f0, f1, f2, x0, x1, x2
 
 
-@njit
+@njit(hot=True)
 def lever(radius, overlap):
     """The lever arm from a ball's centre to the contact point, the middle of the overlap (a pair's
     two levers add up to the centres' distance, so its torques conserve angular momentum)."""
     return radius - 0.5 * overlap
 
 
-@njit
+@njit(hot=True)
 def cross(a0, a1, a2, b0, b1, b2):
     """a x b."""
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0

@@ -28,7 +28,7 @@ from .terrain import round_force
 __all__ = ["PAIR_BLOCK", "PAIR_ROWS", "block_law", "listed_forces", "round_terrain_force"]
 
 
-@njit
+@njit(hot=True)
 def round_terrain_force(b, i, x, v, out, sm, D):
     """Ball i against every static sphere and bowl of the neighbour list's model ``sm`` (its flat
     ``round_sign``, ``round_center``, ``round_radius``), each force added as it comes."""
@@ -109,13 +109,13 @@ def block_law(pairs, buf, ks, kd, no_tension, D):
     return coincident
 
 
-@njit
+@njit(hot=True)
 def _skips(i, escaped, ne):
     """Ball i has escaped its list: its pairs are not listed ones (the caller meets them)."""
     return ne > 0 and escaped[i] != 0
 
 
-@njit
+@njit(hot=True)
 def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, diameter, escaped, ne, buf, stride, D):
     """The block's pairs (rows _D0 to _REST) for balls i0, i0 + 1, ... of [i0, i1) while their
     pairs fit in ``buf``. ``diameter`` > 0: every pair's r_i + r_j (all radii equal: no partner's
@@ -159,7 +159,7 @@ def _gather(i0, i1, xf, vf, nbf, width, cnt, radii, diameter, escaped, ne, buf, 
     return i, np.int64(k)
 
 
-@njit
+@njit(hot=True)
 def _scatter_pairs(bf, stride, k, af, nbf, row, count, D):
     """One ball's listed pairs from the block (its force rows ``stride`` apart in the flat view
     ``bf``, from slot k): each partner's share subtracted from its acceleration, the ball's summed.
@@ -185,7 +185,7 @@ def _scatter_pairs(bf, stride, k, af, nbf, row, count, D):
     return k, f0, f1, f2
 
 
-@njit
+@njit(hot=True)
 def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, escaped, ne, buf, coincident, D):
     """Apply the block's forces (rows _D0 to _D2 after the law) of balls [i0, i1), ball after
     ball in the order gathered: j's share subtracted from a_j, i's summed in registers and added
@@ -223,7 +223,7 @@ def _scatter(i0, i1, xs, vs, a, xf, af, nbr, nbf, width, cnt, near, sm, escaped,
             round_terrain_force(0, i, xs, vs, a, sm, D)
 
 
-@njit
+@njit(hot=True)
 def listed_forces(i0, i1, xs, vs, a, nbr, cnt, near, sm, g, escaped, ne, buf):
     """Listed pair forces (each pair once: added to i, subtracted from j) and terrain contacts of
     the balls in storage slots [i0, i1), in that order, skipping escaped balls' pairs (and pairs

@@ -19,7 +19,7 @@ from .law import normal_force, regularised_ratio
 __all__ = ["pair_geometry", "pair_force", "pair_overlap", "pair_jacobian"]
 
 
-@njit
+@njit(hot=True)
 def pair_geometry(b, i, j, x, model, D):
     """(touching, overlap, n0, n1, n2) of balls i and j: the overlap l0 - |x_j - x_i| and the unit
     normal i -> j (the last axis for coincident centres); ``touching`` False (and the rest 0) when
@@ -40,14 +40,14 @@ def pair_geometry(b, i, j, x, model, D):
     return True, l0 - dist, 0.0, (1.0 if D == 2 else 0.0), (1.0 if D == 3 else 0.0)
 
 
-@njit
+@njit(hot=True)
 def _relative(b, i, j, u):
     """u_j - u_i, three components (the third 0 in 2D)."""
     D = u.shape[2]
     return u[b, j, 0] - u[b, i, 0], u[b, j, 1] - u[b, i, 1], (u[b, j, 2] - u[b, i, 2] if D == 3 else 0.0)
 
 
-@njit
+@njit(hot=True)
 def pair_force(b, i, j, x, v, out, model, D):
     """Add the contact force of balls i and j to ``out`` (on i; minus it on j)."""
     touching, overlap, n0, n1, n2 = pair_geometry(b, i, j, x, model, D)
@@ -83,13 +83,13 @@ def pair_force(b, i, j, x, v, out, model, D):
         out[b, j, 2] -= f2
 
 
-@njit
+@njit(hot=True)
 def pair_overlap(b, i, j, x, model, D):
     """The overlap of balls i and j (0 when apart)."""
     return pair_geometry(b, i, j, x, model, D)[1]
 
 
-@njit
+@njit(hot=True)
 def pair_jacobian(b, i, j, x, p, out, coef, diag, model, D):
     """The linearised backward Euler step's products for the pair, at positions x: with ``diag``
     add ``coef n*n`` (per component, to both balls: the Jacobi preconditioner), else add

@@ -28,7 +28,7 @@ count or on which worlds share a batch.
 from __future__ import annotations
 
 from ..._jit import njit
-from ..broadphase.partners import partners
+from ..broadphase.partners import partner, partners
 from ..geometry.evaluate import is_moving, shape_miss, shape_sdf, surface_velocity
 from .law import cross, history_spring, lever, normal_force, regularised_ratio, turn_into_plane
 from .pair import pair_geometry
@@ -37,7 +37,7 @@ from .terrain import terrain_law
 __all__ = ["spin_pair", "spin_terrain", "spin_forces", "tangential_force", "rolling_torque"]
 
 
-@njit
+@njit(hot=True)
 def tangential_force(spin, b, i, slot, fn, s0, s1, s2, n0, n1, n2, mu, kf, D):
     """The tangential force on a ball whose surface slips at s (tangential) against the other body,
     in contact along n with normal force fn: the spring with history (``spin.kt`` > 0: its slot
@@ -65,7 +65,7 @@ def tangential_force(spin, b, i, slot, fn, s0, s1, s2, n0, n1, n2, mu, kf, D):
     return -k * s0, -k * s1, -k * s2
 
 
-@njit
+@njit(hot=True)
 def rolling_torque(spin, fn, reff, r0, r1, r2):
     """The rolling-resistance torque on a ball whose rolling angular velocity (relative to the
     other body, tangential part) is w_r."""
@@ -76,7 +76,7 @@ def rolling_torque(spin, fn, reff, r0, r1, r2):
     return -k * r0, -k * r1, -k * r2
 
 
-@njit
+@njit(hot=True)
 def _omega(spin, b, i, D):
     """Ball i's angular velocity as a 3-vector (2D: about the out-of-plane axis)."""
     if D == 3:
@@ -84,7 +84,7 @@ def _omega(spin, b, i, D):
     return 0.0, 0.0, spin.w[b, i, 0]
 
 
-@njit
+@njit(hot=True)
 def _add_torque(spin, b, i, t0, t1, t2, D):
     if D == 3:
         spin.alpha[b, i, 0] += t0
@@ -94,7 +94,7 @@ def _add_torque(spin, b, i, t0, t1, t2, D):
         spin.alpha[b, i, 0] += t2
 
 
-@njit
+@njit(hot=True)
 def spin_pair(b, i, j, x, v, a, model, spin, D):
     """Ball i against ball j (i < j): the normal law, the tangential force, the torques and rolling
     resistance; forces added to ``a``, torques to ``spin.alpha``."""
@@ -150,7 +150,7 @@ def spin_pair(b, i, j, x, v, a, model, spin, D):
         _add_torque(spin, b, j, -m0, -m1, -m2, D)
 
 
-@njit
+@njit(hot=True)
 def _spin_terrain_contact(b, i, slot, pen, n0, n1, n2, w0s, w1s, w2s, v, a, model, spin, D):
     """Ball i against one terrain shape, overlapping it by pen along its outward normal n, its
     surface moving at ws there (0 for a static shape): the normal law, then the tangential force,
@@ -203,7 +203,7 @@ def _spin_terrain_contact(b, i, slot, pen, n0, n1, n2, w0s, w1s, w2s, v, a, mode
         _add_torque(spin, b, i, m0, m1, m2, D)
 
 
-@njit
+@njit(hot=True)
 def spin_terrain(b, i, x, v, a, model, spin, D):
     """Ball i against every terrain shape (history slot n + the shape's row)."""
     n = x.shape[1]
@@ -226,7 +226,7 @@ def spin_terrain(b, i, x, v, a, model, spin, D):
             _spin_terrain_contact(b, i, n + s, pen, n0, n1, n2, 0.0, 0.0, 0.0, v, a, model, spin, D)
 
 
-@njit
+@njit(hot=True)
 def spin_forces(b, x, v, a, grid, buf, model, spin, D):
     """Every contact of world b with rotation: forces added to ``a``; ``spin.alpha[b]`` set to the
     angular accelerations (torque / I). Pairs in the visiting order of
@@ -237,9 +237,12 @@ def spin_forces(b, x, v, a, grid, buf, model, spin, D):
         for k in range(R):
             spin.alpha[b, i, k] = 0.0
     for i in range(n):
-        m = partners(b, i, x, grid, buf, D)
-        for t in range(m):
-            spin_pair(b, i, buf[t], x, v, a, model, spin, D)
+        rows, direct = partners(b, i, x, grid, buf, D)
+        for r in range(rows):
+            for idx in range(buf[2 * r], buf[2 * r + 1]):
+                j = partner(grid, b, idx, direct)
+                if j > i:
+                    spin_pair(b, i, j, x, v, a, model, spin, D)
         spin_terrain(b, i, x, v, a, model, spin, D)
     for i in range(n):
         ii = spin.inv_inertia[i]

@@ -29,7 +29,7 @@ __all__ = [
 ]
 
 
-@njit
+@njit(hot=True)
 def terrain_law(pen, n0, n1, n2, r0, r1, r2, ks, kd, no_tension, mu, kf, D):
     """The force (f0, f1, f2) on a ball overlapping a solid by pen > 0 along its outward normal n,
     moving at r relative to the surface: ``f_n n`` with f_n = ks pen - kd (r . n) (clipped at 0
@@ -55,7 +55,7 @@ def terrain_law(pen, n0, n1, n2, r0, r1, r2, ks, kd, no_tension, mu, kf, D):
     return f0, f1, f2
 
 
-@njit
+@njit(hot=True)
 def has_summed_shapes(table):
     """Whether the table holds a shape whose force is summed (not a static sphere or bowl)."""
     for s in range(table.kind.shape[0]):
@@ -64,7 +64,7 @@ def has_summed_shapes(table):
     return False
 
 
-@njit
+@njit(hot=True)
 def _ball(b, i, u, D):
     return u[b, i, 0], u[b, i, 1], (u[b, i, 2] if D == 3 else 0.0)
 
@@ -90,7 +90,7 @@ def _shape_force(table, b, s, p0, p1, p2, u0, u1, u2, r, model, D):
     return True, f0, f1, f2
 
 
-@njit
+@njit(hot=True)
 def summed_terrain(table, b, p0, p1, p2, u0, u1, u2, r, model, D):
     """The summed force (f0, f1, f2) of every shape but the static spheres and bowls on a ball of
     radius r at p moving at u (world b), in the table's order."""
@@ -108,7 +108,7 @@ def summed_terrain(table, b, p0, p1, p2, u0, u1, u2, r, model, D):
     return g0, g1, g2
 
 
-@njit
+@njit(hot=True)
 def round_force(p0, p1, p2, u0, u1, u2, r, sign, c0, c1, c2, R, model, D):
     """(touching, f0, f1, f2): a static sphere (sign +1) or bowl (-1) of centre c and radius R on a
     ball of radius r at p moving at u (the table's rows of kind ``ROUND`` and the neighbour list's
@@ -147,7 +147,7 @@ def round_force(p0, p1, p2, u0, u1, u2, r, sign, c0, c1, c2, R, model, D):
     return True, f0, f1, f2
 
 
-@njit
+@njit(hot=True)
 def terrain_force(b, i, x, v, out, model, D):
     """Add ball i's contact forces with every terrain shape to ``out``: each static sphere or bowl
     as it comes, then the others' sum."""
@@ -188,7 +188,7 @@ def terrain_force(b, i, x, v, out, model, D):
             out[b, i, 2] += g2
 
 
-@njit
+@njit(hot=True)
 def terrain_measure(b, i, x, model, D):
     """Ball i's terrain contacts: (their spring energy, sum of 1/2 ks_terrain pen^2; the largest
     overlap as a fraction of the ball's radius, 0 without contact)."""
@@ -208,7 +208,7 @@ def terrain_measure(b, i, x, model, D):
     return energy, deepest
 
 
-@njit
+@njit(hot=True)
 def terrain_jacobian(b, i, x, p, out, coef, diag, model, D):
     """The linearised backward Euler step's products for ball i's terrain contacts (as
     :func:`.pair.pair_jacobian`): ``coef n*n`` with ``diag``, else ``coef n (n . p)``."""

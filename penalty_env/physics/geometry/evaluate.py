@@ -59,7 +59,7 @@ USER_FD_STEP = 6e-6  # central differences' step, relative to max(1, |q|_inf): ~
 # ---------------------------------------------------------------------------------------------
 
 
-@njit
+@njit(hot=True)
 def to_local(row, x0, x1, x2, D):
     """q = R^T (x - centre), the frame's centre at row[:D] and its rotation (row-major) after it."""
     d0 = x0 - row[0]
@@ -75,7 +75,7 @@ def to_local(row, x0, x1, x2, D):
     return row[R] * d0 + row[R + 2] * d1, row[R + 1] * d0 + row[R + 3] * d1, 0.0
 
 
-@njit
+@njit(hot=True)
 def to_parent(row, n0, n1, n2, D):
     """R n: a local direction in the parent frame (the frame as :func:`to_local`'s)."""
     R = D
@@ -233,7 +233,7 @@ def local_sdf(table, b, s, q0, q1, q2, D):
     return primitive_sdf(kind, q0, q1, q2, par[P0], par[P0 + 1], par[P0 + 2], D)
 
 
-@njit
+@njit(hot=True)
 def shape_sdf(table, b, s, x0, x1, x2, D):
     """(phi, n0, n1, n2) of shape s in the world frame of world b, signed, at the world point x."""
     pose = table.pose[b, s]
@@ -250,7 +250,7 @@ def shape_sdf(table, b, s, x0, x1, x2, D):
     return sg * phi, sg * m0, sg * m1, sg * m2
 
 
-@njit
+@njit(hot=True)
 def shape_miss(table, b, s, p0, p1, p2, r, D):
     """Early miss test without a square root: a solid is touched only within its bound + r of
     its centre, a complement only outside its inner radius - r."""
@@ -267,7 +267,7 @@ def shape_miss(table, b, s, p0, p1, p2, r, D):
     return inner > r and d2 <= (inner - r) * (inner - r)
 
 
-@njit
+@njit(hot=True)
 def surface_velocity(pose, p0, p1, p2, phi, n0, n1, n2, D):
     """Velocity of a moving shape's surface at the contact point (the ball centre's foot on the
     surface, x - phi grad phi): v_s + w_s x (point - c_s)."""
@@ -285,13 +285,13 @@ def surface_velocity(pose, p0, p1, p2, phi, n0, n1, n2, D):
     return pose[V] - pose[W + 2] * c1, pose[V + 1] + pose[W + 2] * c0, 0.0
 
 
-@njit
+@njit(hot=True)
 def is_direct(table, s):
     """A static sphere or bowl: its force is added to the ball as it is computed."""
     return (table.flags[s] & DIRECT) != 0
 
 
-@njit
+@njit(hot=True)
 def is_moving(table, s):
     return (table.flags[s] & MOVING) != 0
 
@@ -345,9 +345,10 @@ def _rotate(row, R, w0, w1, w2, dt, D):
         row[R + 6 + j] = r20 * a + r21 * e + r22 * f
 
 
-@njit
+@njit(hot=True)
 def advance_shapes(table, b, dt, D):
-    """Move every kinematic shape of world b on by dt: centre += dt v, rotation turned by dt w."""
+    """Move every kinematic shape of world b on by dt: centre += dt v, rotation turned by dt w.
+    (Hot: called per world and step, it costs a loop over the flags when nothing moves.)"""
     V = D + D * D
     W = V + D
     for s in range(table.kind.shape[0]):

@@ -9,6 +9,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..._jit import njit
+from ..broadphase.partners import PARTNER_ROWS
 
 __all__ = [
     "STATUS_OK",
@@ -28,12 +29,12 @@ class Scratch(NamedTuple):
     """Per-world scratch of the scalar paths: the partners of one ball, and a step's external
     forces (given forces plus motors)."""
 
-    partners: np.ndarray  # (B, n) int64
+    partners: np.ndarray  # (B, max(n, 2 PARTNER_ROWS)) int64: a ball's partner ranges or partners
     ext: np.ndarray  # (B, n, d)
 
 
 def new_scratch(B: int, n: int, d: int) -> Scratch:
-    return Scratch(partners=np.zeros((B, n), dtype=np.int64), ext=np.zeros((B, n, d)))
+    return Scratch(partners=np.zeros((B, max(n, 2 * PARTNER_ROWS)), dtype=np.int64), ext=np.zeros((B, n, d)))
 
 
 @njit
@@ -48,13 +49,13 @@ def final_status(b, ok, x, v, D):
     return STATUS_OK
 
 
-@njit
+@njit(hot=True)
 def motor_force(max_force, inv_max_speed, throttle, speed):
     """A DC motor's linear force-speed law along one axis: ``max_force (throttle - v / max_speed)``."""
     return max_force * (throttle - speed * inv_max_speed)
 
 
-@njit
+@njit(hot=True)
 def step_forces(b, v, control, motors, E, D):
     """World b's external forces for the next step into ``E[b]``: the given forces (when
     ``control.flags[0]``) plus each motor's force on its ball (at the ball's velocity now)."""

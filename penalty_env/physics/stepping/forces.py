@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from ..._jit import njit
 from ..broadphase.grid import build_grid, uses_cells
-from ..broadphase.partners import partners
+from ..broadphase.partners import partner, partners
 from ..contact.pair import pair_force, pair_jacobian
 from ..contact.spin import spin_forces
 from ..contact.terrain import terrain_force, terrain_jacobian
@@ -21,28 +21,34 @@ from ..contact.terrain import terrain_force, terrain_jacobian
 __all__ = ["contact_forces", "contact_jacobian", "accelerations", "spin_kick"]
 
 
-@njit
+@njit(hot=True)
 def contact_forces(b, x, v, out, grid, buf, model, D):
     """Add every contact force of world b to ``out`` (the grid, if it has cells, built for x)."""
     for i in range(x.shape[1]):
-        m = partners(b, i, x, grid, buf, D)
-        for t in range(m):
-            pair_force(b, i, buf[t], x, v, out, model, D)
+        rows, direct = partners(b, i, x, grid, buf, D)
+        for r in range(rows):
+            for idx in range(buf[2 * r], buf[2 * r + 1]):
+                j = partner(grid, b, idx, direct)
+                if j > i:
+                    pair_force(b, i, j, x, v, out, model, D)
         terrain_force(b, i, x, v, out, model, D)
 
 
-@njit
+@njit(hot=True)
 def contact_jacobian(b, x, p, out, coef_pair, coef_terrain, diag, grid, buf, model, D):
     """The linearised backward Euler step's products over every contact of world b
     (:func:`..contact.pair.pair_jacobian`, :func:`..contact.terrain.terrain_jacobian`)."""
     for i in range(x.shape[1]):
-        m = partners(b, i, x, grid, buf, D)
-        for t in range(m):
-            pair_jacobian(b, i, buf[t], x, p, out, coef_pair, diag, model, D)
+        rows, direct = partners(b, i, x, grid, buf, D)
+        for r in range(rows):
+            for idx in range(buf[2 * r], buf[2 * r + 1]):
+                j = partner(grid, b, idx, direct)
+                if j > i:
+                    pair_jacobian(b, i, j, x, p, out, coef_pair, diag, model, D)
         terrain_jacobian(b, i, x, p, out, coef_terrain, diag, model, D)
 
 
-@njit
+@njit(hot=True)
 def accelerations(b, x, v, a, ext, has_ext, grid, buf, model, spin, g):
     """a = (contact forces + ext) / m + g for world b at state (x, v) (``ext`` read only when
     ``has_ext``); with rotation also ``spin.alpha``. False if x is not finite."""
@@ -68,7 +74,7 @@ def accelerations(b, x, v, a, ext, has_ext, grid, buf, model, spin, g):
     return finite
 
 
-@njit
+@njit(hot=True)
 def spin_kick(spin, b, dt):
     """w += dt alpha (explicit, symplectic and implicit Euler); nothing without rotation."""
     if spin is None:

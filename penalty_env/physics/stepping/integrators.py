@@ -116,7 +116,7 @@ def _dot(b, p, q, D):
     return s
 
 
-@njit
+@njit(hot=True)
 def symplectic_euler_into(a, b, dt, x, v, ext, has_ext, grid, buf, model, spin, g):
     """v += dt a(x, v); x += dt v, with ``a`` as scratch (also the event location's crossing step)."""
     D = len(g)
@@ -129,7 +129,7 @@ def symplectic_euler_into(a, b, dt, x, v, ext, has_ext, grid, buf, model, spin, 
     return ok
 
 
-@njit
+@njit(hot=True)
 def explicit_euler_step(work, b, dt, x, v, ext, has_ext, grid, buf, model, spin, g):
     """x += dt v; v += dt a(x, v), both from the old state."""
     D = len(g)
@@ -143,13 +143,13 @@ def explicit_euler_step(work, b, dt, x, v, ext, has_ext, grid, buf, model, spin,
     return ok
 
 
-@njit
+@njit(hot=True)
 def symplectic_euler_step(work, b, dt, x, v, ext, has_ext, grid, buf, model, spin, g):
     """v += dt a(x, v); x += dt v (the course's integrator)."""
     return symplectic_euler_into(work.a, b, dt, x, v, ext, has_ext, grid, buf, model, spin, g)
 
 
-@njit
+@njit(hot=True)
 def velocity_verlet_step(work, b, dt, x, v, ext, has_ext, grid, buf, model, spin, g):
     """x1 = x + dt v + dt^2/2 a0; a1 = a(x1, v + dt a0); v1 = v + dt/2 (a0 + a1).
 
@@ -339,7 +339,7 @@ _STEPS = (
 )
 
 
-@overload_kernel(integrate)
+@overload_kernel(integrate, hot=True)
 def _integrate(work, b, dt, x, v, ext, has_ext, grid, buf, model, spin, g):
     for cls, step in _STEPS:
         if is_work(work, cls):

@@ -177,7 +177,7 @@ def _shape_forces(full, xs, vs, a, near, escaped, ne, D):
                 a[0, i, 2] += f2
 
 
-@njit
+@njit(hot=True)
 def _rebuild(lw, xs, vs, es, has_ext, sm, threads, g, full):
     """Re-sort the storage by grid cell (balls that touch sit close in memory), then list every
     pair within reach. False if a position is not finite; leaves ``lw.state[0]`` at 0 when a ball

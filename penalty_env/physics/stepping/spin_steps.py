@@ -8,7 +8,7 @@ from ..._jit import njit
 __all__ = ["spin_cache", "spin_predict", "spin_correct", "spin_rk4", "spin_tick"]
 
 
-@njit
+@njit(hot=True)
 def spin_cache(spin, b):
     """Velocity Verlet's first force pass: cache alpha (as a0)."""
     if spin is None:
@@ -19,7 +19,7 @@ def spin_cache(spin, b):
             sw[b, i, k] = al[b, i, k]
 
 
-@njit
+@njit(hot=True)
 def spin_predict(spin, b, dt):
     """Velocity Verlet: keep w in w0, then w = w0 + dt alpha0 (the predicted end-of-step spin the
     second force pass sees, as it sees the predicted velocity)."""
@@ -32,7 +32,7 @@ def spin_predict(spin, b, dt):
             w[b, i, k] += dt * a0[b, i, k]
 
 
-@njit
+@njit(hot=True)
 def spin_correct(spin, b, dt):
     """Velocity Verlet: w = w0 + dt/2 (alpha0 + alpha1); alpha1 cached as the next alpha0."""
     if spin is None:
@@ -68,7 +68,7 @@ def spin_rk4(spin, b, stage, h):
                 w[b, i, k] = w0[b, i, k] + h * al[b, i, k]
 
 
-@njit
+@njit(hot=True)
 def spin_tick(spin, b):
     """One step of world b is done: advance its clock (the history's stamps)."""
     if spin is None:
