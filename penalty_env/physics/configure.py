@@ -39,6 +39,8 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
+from .._results import cached
+from . import error_models as _error_models
 from . import theory
 from .error_models import (
     COST_PER_STEP,
@@ -177,6 +179,29 @@ def configure(
         V.positive("energy_budget", energy_budget)
     if not ERROR_MODELS:
         raise RuntimeError("no measured error models: run python -m penalty_env.bench accuracy --fit")
+    args: tuple[Any, ...] = (max_impact_speed, penetration, restitution, accuracy, damping, terrain)
+    args += (tuple(integrators), events, max_dt, max_force, gravity, energy_budget)
+    key = (tuple(m.tolist()), tuple(r.tolist()), repr(args), _error_models.MODELS_STAMP)
+    return cached("configure", key, lambda: _configured(m, r, *args))
+
+
+def _configured(
+    m: np.ndarray,
+    r: np.ndarray,
+    max_impact_speed: float,
+    penetration: float,
+    restitution: float,
+    accuracy: float,
+    damping: str,
+    terrain: bool,
+    integrators: Sequence[str],
+    events: bool | None,
+    max_dt: float | None,
+    max_force: float | None,
+    gravity: float,
+    energy_budget: float | None,
+) -> ContactConfig:
+    """:func:`configure` on checked arguments (what the results cache keeps)."""
     v = float(max_impact_speed)
     delta_tol = float(penetration) * float(r.min())
     ks, kd, ks_t, kd_t, contacts, zetas, zeta_ref = _contacts(m, v, delta_tol, restitution, damping, terrain, max_force)

@@ -12,6 +12,7 @@ choice is its force-evaluation equivalents per contact duration (:data:`COST_PER
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -34,14 +35,17 @@ ERROR_MODELS: dict = {}
 COST_PER_STEP: dict = {}
 EVENT_EXTRA_EVALS: dict = {}
 MODEL_SOURCE = ""
+MODELS_STAMP = ""  # a hash of the models file read last (results computed from them are keyed on it)
 
 
 def load_error_models(path: str = MODELS_PATH) -> None:
     """Make the error models and costs in ``path`` (the JSON that ``bench accuracy --fit`` writes)
     the ones :func:`configure` uses."""
-    global MODEL_SOURCE
-    with open(path) as f:
-        data: dict[str, Any] = json.load(f)
+    global MODEL_SOURCE, MODELS_STAMP
+    with open(path, "rb") as f:
+        raw = f.read()
+    data: dict[str, Any] = json.loads(raw)
+    MODELS_STAMP = hashlib.sha256(raw).hexdigest()[:20]
     ERROR_MODELS.clear()
     ERROR_MODELS.update(data["error_models"])
     COST_PER_STEP.clear()
