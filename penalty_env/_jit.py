@@ -16,7 +16,7 @@ once per dimension.
 The cache (:class:`PackageCacheLocator`). Kernels are cached on disk (``cache=True``). Numba keys a
 cached kernel on its own source file only, so editing one kernel module would leave code compiled
 from it in the caches of the kernels of other modules; here every kernel's cache entry is keyed on
-a hash of the whole package's kernel sources (``physics/`` and ``envs/``, and this file), so an
+a hash of every Python source of the package (this file included), so an
 edit anywhere recompiles everything and nothing stale can run. The cache lives next to the
 sources (``__pycache__``) when that is writable, else in the user's cache folder
 (``~/.cache/penalty_env/numba``), else in a private temporary folder (``mkdtemp``: never a
@@ -59,16 +59,15 @@ __all__ = ["njit", "overload_kernel", "prange", "entry_point", "source_hash", "P
 prange = numba.prange
 
 _PACKAGE = os.path.dirname(os.path.abspath(__file__))
-# the folders whose sources kernels compile from (with this file)
-_KERNEL_FOLDERS = ("physics", "envs")
 
 
 def _kernel_sources() -> list[str]:
-    files = [os.path.abspath(__file__)]
-    for folder in _KERNEL_FOLDERS:
-        for root, dirs, names in os.walk(os.path.join(_PACKAGE, folder)):
-            dirs[:] = sorted(d for d in dirs if d != "__pycache__")
-            files += [os.path.join(root, n) for n in sorted(names) if n.endswith(".py")]
+    """Every Python source of the package: any of them may hold a kernel (the benchmarks' and the
+    scenarios' too, which call the core's), and a kernel compiles from the sources it calls."""
+    files = []
+    for root, dirs, names in os.walk(_PACKAGE):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        files += [os.path.join(root, n) for n in sorted(names) if n.endswith(".py")]
     return files
 
 

@@ -8,9 +8,8 @@ Prints, for the symplectic-Euler step on this machine:
   (c) the all-pairs / grid crossover in balls per world (``World`` uses it for ``broadphase="auto"``);
   (d) the scalar / SIMD-lanes crossover for batched small worlds (``World`` uses it for the lanes);
   (e) the first-call compile time, cold (fresh cache) and warm (cache filled);
-  (f) the cost of one ball-terrain contact per kind of shape (a ball resting on it, one world per
-      ball), against a sphere's (targets: primitives within 2x, a height field or a CSG shape of four
-      primitives within 3x);
+  (f) the cost of one ball-terrain contact per kind of shape on each stepping path (balls resting
+      on it), against a sphere's (``terrain_costs``; target: a plane, box or height field within 2x);
   (g) the cost of rotation: (a)'s scene with friction, settled, on the scalar path, without
       rotation and with each tangential model (target: at most 1.5x the frictional step).
 The peer of (b) is LAMMPS, run in the same benchmark on the same state of each scene (its
@@ -163,75 +162,6 @@ def crossover(sizes=(8, 16, 24, 32, 48, 64, 96, 128, 256), target_s: float = 0.3
             break
         first_grid = n
     return rows, first_grid
-
-
-@numba.njit
-def _user_plane(p):
-    """A user's SDF for (f): the plane z = 0."""
-    return p[2]
-
-
-def _terrain_kinds():
-    """(label, shape, resting height of a ball of radius 0.1 on it) for (f)."""
-    from ..physics import (
-        SDF,
-        Box,
-        Capsule,
-        Cone,
-        Cylinder,
-        HeightField,
-        Plane,
-        Sphere,
-        Torus,
-        Union,
-    )
-
-    axes = np.linspace(-2.0, 2.0, 41)
-    X, Y = np.meshgrid(axes, axes, indexing="ij")
-    bumps = 0.05 * np.sin(3.0 * X) * np.cos(2.0 * Y)
-    four = Union(
-        Box((0.0, 0.0, -0.5), (0.5, 0.5, 0.5)),
-        Box((2.0, 0.0, -0.5), (0.3, 0.3, 0.5)),
-        Cylinder((-2.0, 0.0, -0.5), 0.4, 0.5),
-        Sphere((0.0, 2.0, -1.0), 1.0),
-    )
-    return [
-        ("Sphere", Sphere((0.0, 0.0, -1.0), 1.0), 0.1),
-        ("Bowl", Bowl((0.0, 0.0, 1.0), 1.0), 0.1),
-        ("Plane", Plane((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)), 0.1),
-        ("Box", Box((0.0, 0.0, -0.5), (0.5, 0.5, 0.5)), 0.1),
-        ("Capsule", Capsule((-0.5, 0.0, -0.3), (0.5, 0.0, -0.3), 0.3), 0.1),
-        ("Cylinder", Cylinder((0.0, 0.0, -0.5), 0.5, 0.5), 0.1),
-        ("Cone", Cone((0.0, 0.0, -0.5), 0.8, 0.4, 0.5), 0.1),
-        ("Torus", Torus((0.1, 0.0, -0.2), 0.1, 0.2), 0.1),
-        ("HeightField", HeightField(bumps, 0.1, origin=(-2.0, -2.0)), 0.1),
-        ("Union of 4", four, 0.1),
-        ("SDF (user)", SDF(_user_plane, dim=3), 0.1),
-    ]
-
-
-def terrain_costs(n_worlds: int = 1024, target_s: float = 0.3):
-    """(f): ns per ball-step of one ball resting on one shape of each kind (one world per ball, the
-    scalar path: one contact a step), less the cost without terrain; and that contact cost against
-    a sphere's."""
-    mass, radius, ks = 1.0, 0.1, 1e4
-    kd = 2.0 * np.sqrt(ks * mass)
-    out = []
-    base = None
-    for label, shape, rest in [("none", None, 0.1)] + _terrain_kinds():
-        x = np.zeros((n_worlds, 1, 3))
-        x[:, 0, 2] = rest - mass * 9.81 / ks
-        # every ball on the shape's top, where it rests (on a hill or a tube: balanced exactly)
-        terrain = () if shape is None else (shape,)
-        w = World(x, [radius], [mass], terrain=terrain, ks=ks, kd=kd, dt=1e-3, stepping="scalar")
-        ns = 1e9 / _rate(w, target_s)
-        if shape is None:
-            base = ns
-            continue
-        in_contact = float(np.mean(w.max_penetration() > 0.0))
-        out.append((label, ns, ns - base, in_contact))
-    sphere = out[0][2]
-    return [(label, ns, contact, contact / sphere, frac) for label, ns, contact, frac in out], base
 
 
 _COMPILE_SNIPPET = """
@@ -434,15 +364,10 @@ def _lanes_part(quick: bool) -> None:
 
 
 def _terrain_part(quick: bool) -> None:
-    """(f): the cost of a ball-terrain contact per kind of shape."""
-    rows, base = terrain_costs(256 if quick else 1024, 0.1 if quick else 0.3)
-    print(
-        f"(f) one ball resting on a shape, one world per ball (scalar path); {base:.1f} ns per ball-step without terrain"
-    )
-    print("    shape          ns/ball-step   contact ns   x a sphere's   worlds in contact")
-    for label, ns, contact, ratio, frac in rows:
-        print(f"    {label:<14} {ns:10.1f}   {contact:10.1f}   {ratio:10.2f}x   {100 * frac:8.0f}%")
-    print("    targets: primitives within 2x a sphere's contact, a height field or a CSG of four primitives within 3x")
+    """(f): the cost of a ball-terrain contact per kind of shape, on every path."""
+    from .terrain_costs import report
+
+    report(quick)
 
 
 def _rotation_part(quick: bool) -> None:

@@ -33,6 +33,8 @@ TARGETS = (
     ("single env / Pusher-v5", "make PenaltyBalls-v0", "make Pusher-v5", 5.0),
     ("vector env (1,024 worlds), env-steps/s", "make_vec PenaltyBalls-v0 x 1024", None, 1.0e6),
     ("vector env (1,024 worlds) / Pusher-v5", "make_vec PenaltyBalls-v0 x 1024", "make Pusher-v5", 100.0),
+    ("arena / bowl (1,024 worlds)", "make_vec PenaltyBalls-v0 x 1024, arena", "make_vec PenaltyBalls-v0 x 1024", 0.8),
+    ("bumpy / bowl (1,024 worlds)", "make_vec PenaltyBalls-v0 x 1024, bumpy", "make_vec PenaltyBalls-v0 x 1024", 0.8),
 )
 
 
@@ -183,6 +185,15 @@ def _cases() -> list[_Case]:
                 f"make_vec PenaltyBalls-v0 x {n}",
                 lambda n=n: _vector(gym.make_vec("PenaltyBalls-v0", num_envs=n), n),
                 n,
+                "env-steps/s",
+            )
+        )
+    for terrain in ("arena", "bumpy"):  # general shapes (planes, boxes; a height field, spheres)
+        cases.append(
+            (
+                f"make_vec PenaltyBalls-v0 x 1024, {terrain}",
+                lambda t=terrain: _vector(gym.make_vec("PenaltyBalls-v0", num_envs=1024, terrain=t), 1024),
+                1024,
                 "env-steps/s",
             )
         )

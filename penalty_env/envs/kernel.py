@@ -264,12 +264,14 @@ def observe_sand(b, x, model, obs, hm, D):
 
 
 @njit(hot=True)
-def _max_overlap(b, x, phys, D):
+def _max_overlap(b, x, grid, buf, model, D):
     """World b's largest overlap / the smaller radius, over every contact (through the World's
-    grid, built for x, where it has one)."""
-    if uses_cells(phys.grid):
-        build_grid(b, x, phys.grid, phys.model.cell_size, D)
-    return deepest_contact(b, x, phys.grid, phys.scratch.partners[b], phys.model, D)
+    grid, built for x, where it has one; ``grid`` None on the lanes path: every pair, and no grid
+    code compiled)."""
+    if grid is not None:
+        if uses_cells(grid):
+            build_grid(b, x, grid, model.cell_size, D)
+    return deepest_contact(b, x, grid, buf, model, D)
 
 
 @njit(hot=True)
@@ -291,7 +293,7 @@ def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, g, task, table, 
     observe them without stepping). ``phys`` is the World's runner's bundle (its state, model and
     buffers), ``lane_scratch`` this thread's SIMD-lanes scratch (None on the scalar path), ``ids`` a
     per-thread list of worlds, ``g`` the World's gravity (the dimension). ``table``, ``bounds``: the observation layout and its bounds; ``hm``
-    the sand's height map (``hm.cells`` 0: none). Returns OK plus the number of worlds that blew up,
+    the sand's height map (None without sand). Returns OK plus the number of worlds that blew up,
     or -(1 + b) for the first world b whose action is NaN or inf (nothing was stepped then)."""
     refused = _refuse_bad_action(worlds, act, stepping)  # before anything moves
     if refused < 0:
@@ -315,10 +317,10 @@ def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, g, task, table, 
             continue
         dg, dp = _distances(b, x, goal, task, task.goal_axes)
         observe(b, x, v, goal, buf.obs, table, bounds, D)
-        if hm.cells > 0:
+        if hm is not None:  # (compiled away without sand)
             observe_sand(b, x, model, buf.obs, hm, D)
         info = buf.info
-        info[_R_OVERLAP, b] = _max_overlap(b, x, phys, D)
+        info[_R_OVERLAP, b] = _max_overlap(b, x, phys.grid, phys.scratch.partners[b], model, D)
         info[_R_DISTANCE, b] = dg
         info[_R_PUSHER, b] = dp
         _reward(b, stepping[b], dg, dp, task, buf)

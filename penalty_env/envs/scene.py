@@ -267,13 +267,17 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         self._ids = np.zeros((_runner.thread_count(), B), dtype=np.int64)  # per thread: the worlds it steps
         # with grains: the sand's height map around the ball; the settled bed (made once per
         # configuration, see ``settled_bed``)
-        self.heightmap = KE.HeightMap(
-            first=self.n_bodies,
-            cells=HEIGHTMAP_CELLS if n_grains else 0,
-            cell=HEIGHTMAP_CELL,
-            bowl_radius=R if self.terrain_kind == "bowl" else 0.0,
-            offset=self.layout.heightmap_offset,
-            top=2.0 * R,
+        self.heightmap = (
+            None
+            if not n_grains
+            else KE.HeightMap(
+                first=self.n_bodies,
+                cells=HEIGHTMAP_CELLS,
+                cell=HEIGHTMAP_CELL,
+                bowl_radius=R if self.terrain_kind == "bowl" else 0.0,
+                offset=self.layout.heightmap_offset,
+                top=2.0 * R,
+            )
         )
         if n_grains:
             # how long the bed was settled and how fast its fastest grain still moved (set by settled_bed)

@@ -166,6 +166,46 @@ def test_lanes_match_the_scalar_path_bit_for_bit(d, integrator, damping, mu, for
     assert np.array_equal(a.velocities, b.velocities)
 
 
+@pytest.mark.parametrize("d", [2, 3])
+def test_static_planes_on_the_lanes_match_the_scalar_path_bit_for_bit_shared_or_not(d):
+    """Balls in a box of static planes (a floor and the walls, as the arena): where every world of
+    a block holds a plane at one pose the lanes evaluate it vectorised, where a world holds it
+    elsewhere (the floor tilted in world 3, a wall moved in world 70: one in each block) one lane
+    at a time; either way bit for bit the scalar path."""
+    from penalty_env.physics import Plane
+
+    B, n = lanes.LANES + 10, 3
+    rng = np.random.default_rng(d)
+    up = np.eye(d)[-1]
+    walls = [Plane(tuple(-0.5 * e), tuple(e)) for e in np.eye(d)[:-1]]
+    walls += [Plane(tuple(0.5 * e), tuple(-e)) for e in np.eye(d)[:-1]]
+    terrain = (Plane((0.0,) * d, tuple(up)), *walls)
+    x = np.concatenate([rng.uniform(-0.35, 0.35, (B, n, d - 1)), rng.uniform(0.1, 0.6, (B, n, 1))], axis=-1)
+    x[..., 0] += np.arange(n) * 0.001  # (no two balls at one point)
+    v = rng.normal(0.0, 1.0, (B, n, d))
+    kw = dict(terrain=terrain, gravity=tuple(-9.81 * up), ks=2e3, kd=3.0, mu=0.3, broadphase="all_pairs", dt=1e-3)
+    tilt = np.eye(d)
+    tilt[[0, -1], [0, -1]] = np.cos(0.2)
+    tilt[0, -1], tilt[-1, 0] = -np.sin(0.2), np.sin(0.2)
+    out = []
+    for shared in (True, False):
+        for stepping in ("lanes", "scalar"):
+            w = World(x, [0.05] * n, [1.0] * n, velocities=v, stepping=stepping, **kw)
+            if not shared:
+                w.set_shape_pose(0, rotation=tilt, worlds=[3])
+                w.set_shape_pose(1, position=-0.45 * np.eye(d)[0], worlds=[70])
+            touched = False
+            for _ in range(4):
+                w.step(100)
+                touched |= bool(np.any(w.max_penetration() > 0.0))
+            assert touched and np.isfinite(w.positions).all()
+            out.append(w)
+    for a, b in (out[0:2], out[2:4]):
+        assert np.array_equal(a.positions, b.positions)
+        assert np.array_equal(a.velocities, b.velocities)
+    assert not np.array_equal(out[0].positions[3], out[2].positions[3])  # the tilt took effect
+
+
 def test_auto_stepping_takes_the_lanes_only_where_they_pay():
     x, _, radii, masses, bowl = balls_in_bowl(4, 3, worlds=LANES_MIN_WORLDS, seed=0, radius=0.08)
     kw = dict(terrain=bowl, ks=2e3, kd=3.0, dt=1e-4)

@@ -75,7 +75,9 @@ def no_grid() -> Grid:
 
 @njit(hot=True)
 def uses_cells(grid):
-    """Whether the grid sorts balls into cells (else every pair is tested)."""
+    """Whether the grid sorts balls into cells (else every pair is tested; None: no grid)."""
+    if grid is None:
+        return False
     return grid.start.shape[1] > 0
 
 

@@ -50,7 +50,7 @@ def cell_partners(b, i, x, grid, later, out, D):
 @njit(hot=True)
 def partners(b, i, x, grid, out, D):
     """Where the balls j > i that can touch ball i are, in the visiting order (see the module
-    docstring): returns (rows, direct), the ranges in ``out`` (``out[2 r]`` to ``out[2 r + 1]``,
+    docstring; ``grid`` None: every pair, as a grid without cells): returns (rows, direct), the ranges in ``out`` (``out[2 r]`` to ``out[2 r + 1]``,
     at least ``PARTNER_ROWS`` pairs long). ``direct``: one range of ball indices (all pairs, or i
     a lead ball), else ranges of ``grid.items``, whose entries j <= i the caller skips. Read them
     with :func:`partner`::
@@ -62,6 +62,10 @@ def partners(b, i, x, grid, out, D):
                 if j > i:
                     ...
     """
+    if grid is None:  # (a path without a grid: compiled away)
+        out[0] = i + 1
+        out[1] = x.shape[1]
+        return 1, True
     if not uses_cells(grid) or i < grid.lead[0]:
         out[0] = i + 1
         out[1] = x.shape[1]
@@ -80,6 +84,8 @@ def partners(b, i, x, grid, out, D):
 @njit(hot=True)
 def partner(grid, b, idx, direct):
     """The ball at entry ``idx`` of a range of :func:`partners`."""
+    if grid is None:
+        return idx
     return idx if direct else grid.items[b, idx]
 
 

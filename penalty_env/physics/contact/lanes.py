@@ -17,12 +17,13 @@ from __future__ import annotations
 import math
 
 from ..._jit import njit
-from ..geometry.evaluate import is_direct
+from ..geometry.evaluate import is_direct, is_moving, miss_test, to_local, to_parent
+from ..geometry.sdf import PLANE, sdf_plane
 from ..geometry.table import P0, SIGN
 from .law import normal_force, regularised_ratio
-from .terrain import has_summed_shapes, summed_terrain
+from .terrain import _shape_force, terrain_law
 
-__all__ = ["pair_lanes", "direct_terrain_lanes", "summed_terrain_lanes"]
+__all__ = ["pair_lanes", "direct_terrain_lanes", "summed_terrain_lanes", "shared_planes"]
 
 
 @njit
@@ -154,30 +155,84 @@ def direct_terrain_lanes(i, X, V, A, F, W, worlds, model, g):
 
 
 @njit
-def summed_terrain_lanes(i, X, V, A, W, worlds, model, g):
-    """Every other shape against sphere i in every lane: the scalar :func:`.terrain.summed_terrain`
-    one lane at a time (bit for bit the scalar path's), its sum added to A."""
+def shared_planes(table, worlds, W, D):
+    """A bit mask of the table's static planes (among its first 64 rows) that every world of the
+    block holds at world ``worlds[0]``'s pose (centre and rotation: what a static shape's distance
+    reads), for :func:`summed_terrain_lanes`. Static shapes do not move while a block is stepped,
+    so a block's mask holds for all its steps."""
+    mask = 0
+    b0 = worlds[0]
+    for s in range(min(table.kind.shape[0], 64)):
+        if table.kind[s] != PLANE or is_moving(table, s) or is_direct(table, s):
+            continue
+        same = True
+        for w in range(1, W):
+            for k in range(D + D * D):
+                same &= table.pose[worlds[w], s, k] == table.pose[b0, s, k]
+        if same:
+            mask |= 1 << s
+    return mask
+
+
+@njit
+def _plane_lanes(i, s, X, V, G, W, pose, model, g):
+    """Plane s, static and at ``pose`` in every world of the block, against sphere i in every
+    lane, its force summed into G: the arithmetic of :func:`.terrain._shape_force` for a plane,
+    written out with no call and no per-lane load of the pose in the loop (the miss and contact
+    tests as masks), so LLVM vectorises it; bit for bit the scalar's."""
     D = len(g)
     table = model.shapes
-    if not has_summed_shapes(table):
-        return
     r = model.radii[i]
+    sg = table.shape[s, SIGN]
+    ks, kd, clip, mu, kf = model.ks_terrain, model.kd_terrain, model.no_tension, model.mu, model.kf
     for w in range(W):
-        b = worlds[w]
-        f0, f1, f2 = summed_terrain(
-            table,
-            b,
-            X[i, 0, w],
-            X[i, 1, w],
-            X[i, 2, w] if D == 3 else 0.0,
-            V[i, 0, w],
-            V[i, 1, w],
-            V[i, 2, w] if D == 3 else 0.0,
-            r,
-            model,
-            D,
-        )
-        A[i, 0, w] += f0
-        A[i, 1, w] += f1
+        p0, p1, p2 = X[i, 0, w], X[i, 1, w], (X[i, 2, w] if D == 3 else 0.0)
+        miss = miss_test(pose, table.shape[s], p0, p1, p2, r, D)
+        q0, q1, q2 = to_local(pose, p0, p1, p2, D)
+        phi, n0, n1, n2 = sdf_plane(q0, q1, q2, 0.0, 0.0, 0.0, D)
+        m0, m1, m2 = to_parent(pose, n0, n1, n2, D)
+        phi, m0, m1, m2 = sg * phi, sg * m0, sg * m1, sg * m2
+        pen = r - phi
+        r0, r1, r2 = V[i, 0, w], V[i, 1, w], (V[i, 2, w] if D == 3 else 0.0)
+        f0, f1, f2 = terrain_law(pen, m0, m1, m2, r0, r1, r2, ks, kd, clip, mu, kf, D)
+        touch = (not miss) & (pen > 0.0)
+        G[0, w] += f0 if touch else 0.0  # (+0.0 leaves a sum that started at +0.0 as it was)
+        G[1, w] += f1 if touch else 0.0
         if D == 3:
-            A[i, 2, w] += f2
+            G[2, w] += f2 if touch else 0.0
+
+
+@njit
+def summed_terrain_lanes(i, X, V, A, G, W, worlds, planes, model, g):
+    """Every other shape against sphere i in every lane, summed in the (D, LANES) buffer G in the
+    table's order and then added to A, as the scalar :func:`.terrain.summed_terrain` sums them
+    (bit for bit): a static plane at one pose in every world of the block (``planes``, the block's
+    :func:`shared_planes`) vectorised (:func:`_plane_lanes`), the other shapes (whose code branches too much to vectorise, or whose
+    pose differs between lanes) through the scalar function one lane at a time."""
+    D = len(g)
+    table = model.shapes
+    r = model.radii[i]
+    for k in range(D):
+        for w in range(W):
+            G[k, w] = 0.0
+    for s in range(table.kind.shape[0]):
+        if is_direct(table, s):
+            continue
+        if s < 64 and (planes >> s) & 1:
+            _plane_lanes(i, s, X, V, G, W, table.pose[worlds[0], s], model, g)
+            continue
+        for w in range(W):
+            b = worlds[w]
+            p2 = X[i, 2, w] if D == 3 else 0.0
+            u2 = V[i, 2, w] if D == 3 else 0.0
+            touching, f0, f1, f2 = _shape_force(
+                table, b, s, X[i, 0, w], X[i, 1, w], p2, V[i, 0, w], V[i, 1, w], u2, r, model, D
+            )
+            if touching:
+                G[0, w] += f0
+                G[1, w] += f1
+                if D == 3:
+                    G[2, w] += f2
+    for k in range(D):
+        for w in range(W):
+            A[i, k, w] += G[k, w]

@@ -69,7 +69,7 @@ def _ball(b, i, u, D):
     return u[b, i, 0], u[b, i, 1], (u[b, i, 2] if D == 3 else 0.0)
 
 
-@njit
+@njit(hot=True)
 def _shape_force(table, b, s, p0, p1, p2, u0, u1, u2, r, model, D):
     """(touching, f0, f1, f2): shape s's force on a ball of radius r at p moving at u."""
     if shape_miss(table, b, s, p0, p1, p2, r, D):

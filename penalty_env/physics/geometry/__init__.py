@@ -12,7 +12,6 @@ module             what it holds
 ``pack``           shapes into the table
 ``sdf``            the primitives' signed distances (kernels)
 ``evaluate``       any row of the table at a point, moving shapes, clearance (kernels)
-``lanes``          the table over a block of worlds, one per SIMD lane (kernels)
 ``implicit``       the overlap of two shapes, by sampling
 =================  ============================================================================
 """

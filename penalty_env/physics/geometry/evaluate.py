@@ -213,23 +213,24 @@ def user_sdf(phi, grad, q0, q1, q2, D):
 # ---------------------------------------------------------------------------------------------
 
 
-@njit
-def local_sdf(table, b, s, q0, q1, q2, D):
-    """Shape s of the table in its local frame (world b's heights), before its sign."""
-    kind = table.kind[s]
-    par = table.shape[s]
+@njit(hot=True)
+def local_sdf(kind, par, heights, prog, leaves, user, q0, q1, q2, D):
+    """A shape of the table in its local frame, before its sign: its ``kind``, its ``shape`` row
+    ``par``, and the table's buffers it may read (``heights``: its world's row). Inlined; the
+    functions it dispatches to are not (each kind's code is large) and take scalars or the one
+    array they read: a call passes each array argument field by field."""
     if kind == HEIGHTS:
         nx = int(par[P0])
         ny = int(par[P0 + 1])
         start = int(par[INDEX])
-        grid = table.heights[b, start : start + nx * ny]
+        grid = heights[start : start + nx * ny]
         return sdf_height(grid, nx, ny, par[P0 + 2], par[P0 + 3], par[P0 + 4], par[P0 + 5], q0, q1, q2, D)
     if kind == CSG:
         c = int(par[INDEX])
-        return csg_sdf(table.prog[c], table.leaves[c], q0, q1, q2, D)
+        return csg_sdf(prog[c], leaves[c], q0, q1, q2, D)
     if kind == USER:
         u = int(par[INDEX])
-        return user_sdf(table.user[u, 0], table.user[u, 1], q0, q1, q2, D)
+        return user_sdf(user[u, 0], user[u, 1], q0, q1, q2, D)
     return primitive_sdf(kind, q0, q1, q2, par[P0], par[P0 + 1], par[P0 + 2], D)
 
 
@@ -245,7 +246,9 @@ def shape_sdf(table, b, s, x0, x1, x2, D):
         phi, n0, n1, n2 = sdf_round(q0, q1, q2, table.shape[s, P0], 0.0, 0.0, D)
         return sg * phi, sg * n0, sg * n1, sg * n2
     q0, q1, q2 = to_local(pose, x0, x1, x2, D)
-    phi, n0, n1, n2 = local_sdf(table, b, s, q0, q1, q2, D)
+    phi, n0, n1, n2 = local_sdf(
+        table.kind[s], table.shape[s], table.heights[b], table.prog, table.leaves, table.user, q0, q1, q2, D
+    )
     m0, m1, m2 = to_parent(pose, n0, n1, n2, D)
     return sg * phi, sg * m0, sg * m1, sg * m2
 
@@ -254,16 +257,21 @@ def shape_sdf(table, b, s, x0, x1, x2, D):
 def shape_miss(table, b, s, p0, p1, p2, r, D):
     """Early miss test without a square root: a solid is touched only within its bound + r of
     its centre, a complement only outside its inner radius - r."""
-    pose = table.pose[b, s]
+    return miss_test(table.pose[b, s], table.shape[s], p0, p1, p2, r, D)
+
+
+@njit(hot=True)
+def miss_test(pose, par, p0, p1, p2, r, D):
+    """:func:`shape_miss` of the shape whose pose row and ``shape`` row are given."""
     d0 = p0 - pose[0]
     d1 = p1 - pose[1]
     d2 = d0 * d0 + d1 * d1
     if D == 3:
         d2 += (p2 - pose[2]) * (p2 - pose[2])
-    if table.shape[s, SIGN] > 0.0:
-        bound = table.shape[s, BOUND]
+    if par[SIGN] > 0.0:
+        bound = par[BOUND]
         return d2 >= (bound + r) * (bound + r)
-    inner = table.shape[s, INNER]
+    inner = par[INNER]
     return inner > r and d2 <= (inner - r) * (inner - r)
 
 

@@ -63,7 +63,7 @@ KIND_NAMES = ("plane", "round", "box", "capsule", "cylinder", "cone", "torus", "
 PRIMITIVES = (PLANE, ROUND, BOX, CAPSULE, CYLINDER, CONE, TORUS)  # the kinds a CSG leaf may be
 
 
-@njit
+@njit(hot=True)
 def sdf_plane(q0, q1, q2, a, b, c, D):
     """Half-space below the local z = 0 plane: phi = z."""
     if D == 3:

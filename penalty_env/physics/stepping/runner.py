@@ -140,8 +140,8 @@ class Physics(NamedTuple):
 
 
 class LanesPhysics(NamedTuple):
-    """What the SIMD-lanes path steps (symplectic or explicit Euler, all pairs), and the grid and
-    scratch of the world's scalar passes (its diagnostics)."""
+    """What the SIMD-lanes path steps (symplectic or explicit Euler, all pairs), and the scratch of
+    the world's scalar passes (its diagnostics; ``grid`` is None: every pair is tested)."""
 
     x: np.ndarray
     v: np.ndarray
@@ -224,8 +224,9 @@ class Runner:
         self.lists = NeighbourLists(model, B, n, d, thread_count()) if path == "neighbour_list" else None
         if path == "lanes":
             sym = integrator == "symplectic_euler"
+            # (no grid: the lanes test every pair, and the diagnostics compile no grid code)
             self.physics: Any = LanesPhysics(
-                state.positions, state.velocities, sym, control, grid, self.scratch, model, g, dt, status
+                state.positions, state.velocities, sym, control, None, self.scratch, model, g, dt, status
             )
         else:
             self.physics = Physics(
