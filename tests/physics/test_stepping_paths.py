@@ -167,19 +167,19 @@ def test_lanes_match_the_scalar_path_bit_for_bit(d, integrator, damping, mu, for
 
 
 @pytest.mark.parametrize("d", [2, 3])
-def test_static_planes_on_the_lanes_match_the_scalar_path_bit_for_bit_shared_or_not(d):
-    """Balls in a box of static planes (a floor and the walls, as the arena): where every world of
-    a block holds a plane at one pose the lanes evaluate it vectorised, where a world holds it
-    elsewhere (the floor tilted in world 3, a wall moved in world 70: one in each block) one lane
-    at a time; either way bit for bit the scalar path."""
-    from penalty_env.physics import Plane
+def test_static_planes_and_boxes_on_the_lanes_match_the_scalar_path_bit_for_bit_shared_or_not(d):
+    """Balls in a box of static planes (a floor and the walls, as the arena) around a static box:
+    where every world of a block holds a shape at one pose the lanes evaluate it vectorised, where
+    a world holds it elsewhere (the floor tilted in world 3, a wall moved in world 70: one in each
+    block; the box turned in world 5) one lane at a time; either way bit for bit the scalar path."""
+    from penalty_env.physics import Box, Plane
 
     B, n = lanes.LANES + 10, 3
     rng = np.random.default_rng(d)
     up = np.eye(d)[-1]
     walls = [Plane(tuple(-0.5 * e), tuple(e)) for e in np.eye(d)[:-1]]
     walls += [Plane(tuple(0.5 * e), tuple(-e)) for e in np.eye(d)[:-1]]
-    terrain = (Plane((0.0,) * d, tuple(up)), *walls)
+    terrain = (Plane((0.0,) * d, tuple(up)), *walls, Box((0.0,) * d, (0.1,) * d))
     x = np.concatenate([rng.uniform(-0.35, 0.35, (B, n, d - 1)), rng.uniform(0.1, 0.6, (B, n, 1))], axis=-1)
     x[..., 0] += np.arange(n) * 0.001  # (no two balls at one point)
     v = rng.normal(0.0, 1.0, (B, n, d))
@@ -194,6 +194,7 @@ def test_static_planes_on_the_lanes_match_the_scalar_path_bit_for_bit_shared_or_
             if not shared:
                 w.set_shape_pose(0, rotation=tilt, worlds=[3])
                 w.set_shape_pose(1, position=-0.45 * np.eye(d)[0], worlds=[70])
+                w.set_shape_pose(len(terrain) - 1, rotation=tilt, worlds=[5])
             touched = False
             for _ in range(4):
                 w.step(100)

@@ -18,12 +18,12 @@ import math
 
 from ..._jit import njit
 from ..geometry.evaluate import is_direct, is_moving, miss_test, to_local, to_parent
-from ..geometry.sdf import PLANE, sdf_plane
+from ..geometry.sdf import BOX, PLANE, sdf_box, sdf_plane
 from ..geometry.table import P0, SIGN
 from .law import normal_force, regularised_ratio
 from .terrain import _shape_force, terrain_law
 
-__all__ = ["pair_lanes", "direct_terrain_lanes", "summed_terrain_lanes", "shared_planes"]
+__all__ = ["pair_lanes", "direct_terrain_lanes", "summed_terrain_lanes", "shared_statics"]
 
 
 @njit
@@ -155,15 +155,15 @@ def direct_terrain_lanes(i, X, V, A, F, W, worlds, model, g):
 
 
 @njit
-def shared_planes(table, worlds, W, D):
-    """A bit mask of the table's static planes (among its first 64 rows) that every world of the
-    block holds at world ``worlds[0]``'s pose (centre and rotation: what a static shape's distance
+def shared_statics(table, worlds, W, D):
+    """A bit mask of the table's static planes and boxes (among its first 64 rows) that every
+    world of the block holds at world ``worlds[0]``'s pose (centre and rotation: what a static shape's distance
     reads), for :func:`summed_terrain_lanes`. Static shapes do not move while a block is stepped,
     so a block's mask holds for all its steps."""
     mask = 0
     b0 = worlds[0]
     for s in range(min(table.kind.shape[0], 64)):
-        if table.kind[s] != PLANE or is_moving(table, s) or is_direct(table, s):
+        if (table.kind[s] != PLANE and table.kind[s] != BOX) or is_moving(table, s) or is_direct(table, s):
             continue
         same = True
         for w in range(1, W):
@@ -175,11 +175,13 @@ def shared_planes(table, worlds, W, D):
 
 
 @njit
-def _plane_lanes(i, s, X, V, G, W, pose, model, g):
-    """Plane s, static and at ``pose`` in every world of the block, against sphere i in every
-    lane, its force summed into G: the arithmetic of :func:`.terrain._shape_force` for a plane,
-    written out with no call and no per-lane load of the pose in the loop (the miss and contact
-    tests as masks), so LLVM vectorises it; bit for bit the scalar's."""
+def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
+    """Shape s, static and at ``pose`` in every world of the block, of the primitive kind whose
+    local distance is ``sdf`` (:func:`..geometry.sdf.sdf_plane`, ``sdf_box``: inlined, branches
+    LLVM turns into selects), against sphere i in every lane, its force summed into G: the
+    arithmetic of :func:`.terrain._shape_force`, written out with no call and no per-lane load of
+    the pose in the loop (the miss and contact tests as masks), so LLVM vectorises it; bit for bit
+    the scalar's. Compiled once per ``sdf``."""
     D = len(g)
     table = model.shapes
     r = model.radii[i]
@@ -189,7 +191,8 @@ def _plane_lanes(i, s, X, V, G, W, pose, model, g):
         p0, p1, p2 = X[i, 0, w], X[i, 1, w], (X[i, 2, w] if D == 3 else 0.0)
         miss = miss_test(pose, table.shape[s], p0, p1, p2, r, D)
         q0, q1, q2 = to_local(pose, p0, p1, p2, D)
-        phi, n0, n1, n2 = sdf_plane(q0, q1, q2, 0.0, 0.0, 0.0, D)
+        par = table.shape[s]
+        phi, n0, n1, n2 = sdf(q0, q1, q2, par[P0], par[P0 + 1], par[P0 + 2], D)
         m0, m1, m2 = to_parent(pose, n0, n1, n2, D)
         phi, m0, m1, m2 = sg * phi, sg * m0, sg * m1, sg * m2
         pen = r - phi
@@ -203,11 +206,11 @@ def _plane_lanes(i, s, X, V, G, W, pose, model, g):
 
 
 @njit
-def summed_terrain_lanes(i, X, V, A, G, W, worlds, planes, model, g):
+def summed_terrain_lanes(i, X, V, A, G, W, worlds, statics, model, g):
     """Every other shape against sphere i in every lane, summed in the (D, LANES) buffer G in the
     table's order and then added to A, as the scalar :func:`.terrain.summed_terrain` sums them
-    (bit for bit): a static plane at one pose in every world of the block (``planes``, the block's
-    :func:`shared_planes`) vectorised (:func:`_plane_lanes`), the other shapes (whose code branches too much to vectorise, or whose
+    (bit for bit): a static plane or box at one pose in every world of the block (``statics``, the
+    block's :func:`shared_statics`) vectorised (:func:`_static_lanes`), the other shapes (whose code branches too much to vectorise, or whose
     pose differs between lanes) through the scalar function one lane at a time."""
     D = len(g)
     table = model.shapes
@@ -218,8 +221,11 @@ def summed_terrain_lanes(i, X, V, A, G, W, worlds, planes, model, g):
     for s in range(table.kind.shape[0]):
         if is_direct(table, s):
             continue
-        if s < 64 and (planes >> s) & 1:
-            _plane_lanes(i, s, X, V, G, W, table.pose[worlds[0], s], model, g)
+        if s < 64 and (statics >> s) & 1:
+            if table.kind[s] == PLANE:
+                _static_lanes(i, s, X, V, G, W, table.pose[worlds[0], s], model, g, sdf_plane)
+            else:
+                _static_lanes(i, s, X, V, G, W, table.pose[worlds[0], s], model, g, sdf_box)
             continue
         for w in range(W):
             b = worlds[w]

@@ -84,12 +84,12 @@ def sdf_round(q0, q1, q2, R, b, c, D):
     return dist - R, 0.0, (1.0 if D == 2 else 0.0), (1.0 if D == 3 else 0.0)
 
 
-@njit
+@njit(hot=True)
 def _sign(x):
     return -1.0 if x < 0.0 else 1.0
 
 
-@njit
+@njit(hot=True)
 def _box2(a, z, ha, hz):
     """Exact distance to the 2D box |a| <= ha, |z| <= hz: (phi, na, nz)."""
     ua = abs(a) - ha
@@ -105,7 +105,7 @@ def _box2(a, z, ha, hz):
     return uz, 0.0, _sign(z)
 
 
-@njit
+@njit(hot=True)
 def sdf_box(q0, q1, q2, h0, h1, h2, D):
     """Box of half extents h: phi = |max(u, 0)| + min(max_k u_k, 0), u = |q| - h (exact)."""
     if D == 2:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._jit import njit
-from ..contact.lanes import direct_terrain_lanes, pair_lanes, shared_planes, summed_terrain_lanes
+from ..contact.lanes import direct_terrain_lanes, pair_lanes, shared_statics, summed_terrain_lanes
 from ..contact.terrain import has_summed_shapes
 from ..geometry.evaluate import advance_shapes
 from .common import STATUS_OK, final_status, motor_force
@@ -42,10 +42,10 @@ SCRATCH_ROWS = 6
 
 
 @njit(hot=True)
-def lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, planes, model, g):
+def lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, statics, model, g):
     """One symplectic (or explicit) Euler step of the W worlds of a block (lane w holds world
-    ``block[w]``), all pairs; kinematic shapes move on after it. ``planes``: the block's
-    :func:`..contact.lanes.shared_planes`."""
+    ``block[w]``), all pairs; kinematic shapes move on after it. ``statics``: the block's
+    :func:`..contact.lanes.shared_statics`."""
     D = len(g)
     n = X.shape[0]
     summed = has_summed_shapes(model.shapes)
@@ -58,7 +58,7 @@ def lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, planes, model, 
             pair_lanes(i, j, X, V, A, F, W, model, g)
         direct_terrain_lanes(i, X, V, A, F, W, block, model, g)
         if summed:
-            summed_terrain_lanes(i, X, V, A, F, W, block, planes, model, g)
+            summed_terrain_lanes(i, X, V, A, F, W, block, statics, model, g)
     for i in range(n):
         im = model.inv_mass[i]
         for k in range(D):
@@ -157,13 +157,13 @@ def run_lanes(symplectic, worlds, nsteps, dt, x, v, scratch, control, model, g, 
         W = min(LANES, worlds.shape[0] - c)
         block = worlds[c : c + W]
         _load_block(block, W, x, v, X, V)
-        planes = shared_planes(model.shapes, block, W, D)
+        statics = shared_statics(model.shapes, block, W, D)
         if has_ext:
             _load_inputs(block, W, control, motors, E, T)
         for _ in range(nsteps):
             if motors.ball.shape[0] > 0:
                 _motors_lanes(block, W, V, E, T, control, motors)
-            lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, planes, model, g)
+            lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, statics, model, g)
         _store_block(block, W, x, v, X, V)
         for w in range(W):
             b = block[w]
