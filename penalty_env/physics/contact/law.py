@@ -67,9 +67,10 @@ def regularised_ratio(slope, mu, fn, speed2):
     relative motion u of squared size ``speed2`` (0 when at rest). Friction: u the sliding
     velocity, ``slope`` kf; rolling resistance: u the rolling angular velocity, ``slope`` kr and
     ``mu`` mu_r R*."""
+    if not speed2 > 0.0:  # (a branch LLVM turns into a select in the SIMD loops)
+        return 0.0
     speed = math.sqrt(speed2)
-    ratio = min(slope * speed, mu * abs(fn)) / speed
-    return ratio if speed2 > 0.0 else 0.0
+    return min(slope * speed, mu * abs(fn)) / speed
 
 
 @njit(hot=True)

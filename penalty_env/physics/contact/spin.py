@@ -238,11 +238,15 @@ def spin_forces(b, x, v, a, grid, buf, model, spin, D):
             spin.alpha[b, i, k] = 0.0
     for i in range(n):
         rows, direct = partners(b, i, x, grid, buf, D)
-        for r in range(rows):
-            for idx in range(buf[2 * r], buf[2 * r + 1]):
-                j = partner(grid, b, idx, direct)
-                if j > i:
-                    spin_pair(b, i, j, x, v, a, model, spin, D)
+        if direct:  # one range of later balls (all pairs, a lead ball): no test per pair
+            for j in range(buf[0], buf[1]):
+                spin_pair(b, i, j, x, v, a, model, spin, D)
+        else:
+            for r in range(rows):
+                for idx in range(buf[2 * r], buf[2 * r + 1]):
+                    j = partner(grid, b, idx, direct)
+                    if j > i:
+                        spin_pair(b, i, j, x, v, a, model, spin, D)
         spin_terrain(b, i, x, v, a, model, spin, D)
     for i in range(n):
         ii = spin.inv_inertia[i]

@@ -26,11 +26,15 @@ def contact_forces(b, x, v, out, grid, buf, model, D):
     """Add every contact force of world b to ``out`` (the grid, if it has cells, built for x)."""
     for i in range(x.shape[1]):
         rows, direct = partners(b, i, x, grid, buf, D)
-        for r in range(rows):
-            for idx in range(buf[2 * r], buf[2 * r + 1]):
-                j = partner(grid, b, idx, direct)
-                if j > i:
-                    pair_force(b, i, j, x, v, out, model, D)
+        if direct:  # one range of later balls (all pairs, a lead ball): no test per pair
+            for j in range(buf[0], buf[1]):
+                pair_force(b, i, j, x, v, out, model, D)
+        else:
+            for r in range(rows):
+                for idx in range(buf[2 * r], buf[2 * r + 1]):
+                    j = partner(grid, b, idx, direct)
+                    if j > i:
+                        pair_force(b, i, j, x, v, out, model, D)
         terrain_force(b, i, x, v, out, model, D)
 
 
