@@ -10,8 +10,9 @@ the same scene's without terrain (the balls then fall freely: no contact) is the
 * ``scalar``: 1,024 worlds of one ball resting on the shape's top, one world per thread at a time;
 * ``lanes``: the same worlds, 64 to a SIMD block;
 * ``neighbour_list``: one world of 1,024 small balls (radius 0.01) on a 32 x 32 lattice 0.03 apart
-  over the shape's top (each ball set down where the shape's surface is, from the World's own
-  signed distance), found through the grid and its Verlet list.
+  over the shape's top, each set down overlapping the shape's surface by a tenth of its radius
+  (from the World's own signed distance), without gravity and so heavy that they stay there
+  while they are timed; found through the grid and its Verlet list.
 
 The targets: a plane, box or height-field contact at most 2x a sphere's on every path; the other
 primitives within 2x and a CSG of four primitives within 3x on the scalar path.
@@ -89,7 +90,7 @@ def _rate(world: World, target_s: float) -> float:
 def _rest_heights(shape: object, xy: np.ndarray, radius: float, overlap: float) -> np.ndarray:
     """Heights at which balls at ``xy`` (N, 2) overlap the shape's top surface by ``overlap``
     (bisection on the World's own signed distance, from above)."""
-    probe = World(np.zeros((1, 3)), [radius], [1.0], terrain=(shape,), ks=1.0, kd=0.0, dt=1e-3)
+    probe = World(np.zeros((1, 3)), [radius], [1.0], terrain=(shape,), ks=1.0, kd=0.0, dt=1e-3, start_check=False)
     lo, hi = np.full(len(xy), -1.5), np.full(len(xy), 1.5)
     for _ in range(60):
         mid = 0.5 * (lo + hi)
@@ -101,23 +102,22 @@ def _rest_heights(shape: object, xy: np.ndarray, radius: float, overlap: float) 
 
 
 def _scene(path: str, shape: object | None, n_worlds: int) -> World:
-    mass = 1.0 if path != "neighbour_list" else 1e-3
-    radius = 0.1 if path != "neighbour_list" else 0.01
-    ks = 1e4 if path != "neighbour_list" else 10.0
-    kd = 2.0 * np.sqrt(ks * mass)
-    sink = mass * 9.81 / ks  # the resting overlap
     terrain = () if shape is None else (shape,)
     if path != "neighbour_list":
+        mass, radius, ks = 1.0, 0.1, 1e4
+        kd = 2.0 * np.sqrt(ks * mass)
         x = np.zeros((n_worlds, 1, 3))
-        x[:, 0, 2] = radius - sink  # every ball on the shape's top, where it rests
+        x[:, 0, 2] = radius - mass * 9.81 / ks  # every ball on the shape's top, where it rests
         return World(x, [radius], [mass], terrain=terrain, ks=ks, kd=kd, dt=1e-3, stepping=path)
+    mass, radius, ks = 1e6, 0.01, 10.0  # (pushed out at 1e-9 m/s^2: in contact while timed)
     side = 32
     axis = (np.arange(side) - 0.5 * (side - 1)) * 0.03
     xy = np.stack(np.meshgrid(axis, axis, indexing="ij"), axis=-1).reshape(-1, 2)
-    z = np.full(len(xy), radius) if shape is None else _rest_heights(shape, xy, radius, sink)
+    z = np.full(len(xy), radius) if shape is None else _rest_heights(shape, xy, radius, 0.1 * radius)
     x = np.column_stack([xy, z])
     n = len(x)
-    return World(x, np.full(n, radius), np.full(n, mass), terrain=terrain, ks=ks, kd=kd, dt=1e-3, stepping=path)
+    kw = dict(ks=ks, kd=0.0, dt=1e-3, gravity=(0.0, 0.0, 0.0), stepping=path)
+    return World(x, np.full(n, radius), np.full(n, mass), terrain=terrain, **kw)
 
 
 def terrain_costs(path: str = "scalar", n_worlds: int = 1024, target_s: float = 0.3) -> tuple[list, float]:
