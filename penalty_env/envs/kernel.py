@@ -34,6 +34,8 @@ __all__ = [
     "INFO_KEYS",
     "new_buffers",
     "step_worlds",
+    "act_worlds",
+    "observe_worlds",
     "first_bad_action",
     "OK",
 ]
@@ -287,19 +289,15 @@ def _act(ids, act, throttle):
             throttle[b, 0, k] = _clip(act[b, k], -1.0, 1.0) * scale
 
 
-@njit(entry=True, nogil=True)
-def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, g, task, table, bounds, goal, buf, hm):
-    """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
-    observe them without stepping). ``phys`` is the World's runner's bundle (its state, model and
-    buffers), ``lane_scratch`` this thread's SIMD-lanes scratch (None on the scalar path), ``ids`` a
-    per-thread list of worlds, ``g`` the World's gravity (the dimension). ``table``, ``bounds``: the observation layout and its bounds; ``hm``
-    the sand's height map (None without sand). Returns OK plus the number of worlds that blew up,
-    or -(1 + b) for the first world b whose action is NaN or inf (nothing was stepped then)."""
+@njit(hot=True)
+def _act_on(worlds, act, stepping, status, throttle, ids):
+    """The actions of ``worlds`` as the motor's ``throttle``, their World ``status`` cleared, the
+    stepping ones listed in ``ids``: returns how
+    many (``ids[:W]``), or -(1 + b) for the first world b whose action is NaN or inf (then
+    nothing is touched)."""
     refused = _refuse_bad_action(worlds, act, stepping)  # before anything moves
     if refused < 0:
         return refused
-    x, v, status = phys.x, phys.v, phys.status
-    D = len(g)
     W = 0
     for t in range(worlds.shape[0]):
         b = worlds[t]
@@ -307,9 +305,16 @@ def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, g, task, table, 
         if stepping[b]:
             ids[W] = b
             W += 1
-    _act(ids[:W], act, phys.control.throttle)
-    bad = advance(phys, ids[:W], task.substeps, lane_scratch)  # sets status[b] (the World's)
-    # observation, reward and diagnostics, world by world
+    _act(ids[:W], act, throttle)
+    return W
+
+
+@njit(hot=True)
+def _observe_worlds(worlds, stepping, phys, g, task, table, bounds, goal, buf, hm):
+    """Observation, reward and diagnostics of every world of ``worlds`` whose physics did not
+    blow up (world by world)."""
+    x, v, status = phys.x, phys.v, phys.status
+    D = len(g)
     model = phys.model
     for t in range(worlds.shape[0]):
         b = worlds[t]
@@ -324,4 +329,36 @@ def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, g, task, table, 
         info[_R_DISTANCE, b] = dg
         info[_R_PUSHER, b] = dp
         _reward(b, stepping[b], dg, dp, task, buf)
+
+
+@njit(entry=True, nogil=True)
+def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, g, task, table, bounds, goal, buf, hm):
+    """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
+    observe them without stepping), in one call: act, the physics on the World's runner (its
+    ``advance``), observe and reward. ``phys`` is the World's runner's bundle (its state, model and
+    buffers), ``lane_scratch`` this thread's SIMD-lanes scratch (None on the scalar path), ``ids`` a
+    per-thread list of worlds, ``g`` the World's gravity (the dimension). ``table``, ``bounds``: the
+    observation layout and its bounds; ``hm`` the sand's height map (None without sand). Returns OK
+    plus the number of worlds that blew up, or -(1 + b) for the first world b whose action is NaN
+    or inf (nothing was stepped then)."""
+    W = _act_on(worlds, act, stepping, phys.status, phys.control.throttle, ids)
+    if W < 0:
+        return W
+    bad = advance(phys, ids[:W], task.substeps, lane_scratch)  # sets status[b] (the World's)
+    _observe_worlds(worlds, stepping, phys, g, task, table, bounds, goal, buf, hm)
     return bad
+
+
+@njit(entry=True, nogil=True)
+def act_worlds(worlds, act, stepping, status, throttle, ids):
+    """:func:`step_worlds`' first part alone (the actions as throttles, the stepping worlds listed
+    in ``ids``; returns how many, or the refusal): for a scene whose physics steps through
+    ``World.step``'s own kernel (the scalar path: sand, rolling balls), which then compiles once
+    for the scene and for everything else that steps a World of its kind (a sand bed's settling)."""
+    return _act_on(worlds, act, stepping, status, throttle, ids)
+
+
+@njit(entry=True, nogil=True)
+def observe_worlds(worlds, stepping, phys, g, task, table, bounds, goal, buf, hm):
+    """:func:`step_worlds`' last part alone (after :func:`act_worlds` and ``World.step``)."""
+    _observe_worlds(worlds, stepping, phys, g, task, table, bounds, goal, buf, hm)

@@ -19,7 +19,7 @@ from .. import _validate as V
 from . import diagnostics as _diagnostics
 from . import theory
 from .broadphase.grid import GRID_MIN_BALLS, new_grid, no_grid
-from .geometry.pack import is_static_round, pack_table
+from .geometry.pack import is_static_round, pack_table, user_addresses
 from .geometry.shapes import Shape
 from .geometry.user import SDF
 from .guard import STABILITY_SAFETY, EnergyDriftWarning, StabilityGuard, StartOverlapWarning
@@ -368,8 +368,6 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
         """After unpickling: the user SDFs' compiled callbacks have new addresses."""
         self.__dict__.update(state)
         if any(isinstance(s, SDF) for s in self.terrain):
-            from .geometry.pack import user_addresses
-
             self._model.shapes.user[:] = user_addresses(self.terrain)
 
     # ---------------------------------------------------------------- stepping

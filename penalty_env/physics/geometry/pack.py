@@ -1,16 +1,16 @@
-"""Shapes into the kernels' :class:`~.table.ShapeTable` (the Python side of the table)."""
+"""Shapes into the kernels' :class:`~.table.ShapeTable` (the Python side of the table).
+
+It reads each shape's kind code (:data:`.sdf.KIND_NAMES`) and what that kind holds, and imports no
+shape class: the shapes import it (a shape evaluates itself through a one-shape table)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from .csg import _CSG
-from .heightfield import HeightField
-from .sdf import KIND_NAMES
-from .shapes import Shape, _Round
+from .sdf import CSG, HEIGHTS, KIND_NAMES, ROUND, USER
 from .table import (
     CSG_MAX_DEPTH,
     DIRECT,
@@ -25,7 +25,6 @@ from .table import (
     pose_columns,
     pose_size,
 )
-from .user import SDF
 
 __all__ = ["PackedTerrain", "pack_table", "is_static_round", "user_addresses"]
 
@@ -37,12 +36,12 @@ class PackedTerrain(NamedTuple):
     rows: tuple[int, ...]
 
 
-def is_static_round(shape: Shape) -> bool:
+def is_static_round(shape: Any) -> bool:
     """A static Sphere or Bowl: its force is added to a ball as it is computed (table.DIRECT)."""
-    return isinstance(shape, _Round) and not shape.kinematic
+    return shape.kind == ROUND and not shape.kinematic
 
 
-def _table_order(shapes: Sequence[Shape]) -> list[int]:
+def _table_order(shapes: Sequence[Any]) -> list[int]:
     """The table's row order of ``shapes`` (indices): static spheres and bowls first, in their
     order; then the rest by kind, each kind in their order (:mod:`.table`)."""
     direct = [k for k, s in enumerate(shapes) if is_static_round(s)]
@@ -50,14 +49,14 @@ def _table_order(shapes: Sequence[Shape]) -> list[int]:
     return direct + rest
 
 
-def _omega3(shape: Shape) -> tuple[float, float, float]:
+def _omega3(shape: Any) -> tuple[float, float, float]:
     w = shape.angular_velocity
     if w is None:
         return (0.0, 0.0, 0.0)
     return (0.0, 0.0, w[0]) if shape.dim == 2 else (w[0], w[1], w[2])
 
 
-def _pose_row(shape: Shape, d: int) -> np.ndarray:
+def _pose_row(shape: Any, d: int) -> np.ndarray:
     cols = pose_columns(d)
     row = np.zeros(pose_size(d))
     row[cols["position"]] = shape.center
@@ -67,7 +66,7 @@ def _pose_row(shape: Shape, d: int) -> np.ndarray:
     return row
 
 
-def _program_arrays(shapes: list[_CSG], d: int) -> tuple[np.ndarray, np.ndarray]:
+def _program_arrays(shapes: list[Any], d: int) -> tuple[np.ndarray, np.ndarray]:
     """(prog, leaves) of the CSG shapes: each program's length and ops, each leaf's row."""
     programs = [s.program() for s in shapes]
     L = max([len(ops) for _, ops in programs], default=0)
@@ -94,17 +93,16 @@ def _program_arrays(shapes: list[_CSG], d: int) -> tuple[np.ndarray, np.ndarray]
     return prog, rows
 
 
-def user_addresses(shapes: Sequence[Shape]) -> np.ndarray:
+def user_addresses(shapes: Sequence[Any]) -> np.ndarray:
     """(U, 2) the addresses of the user SDFs' callbacks, in table order (compiled on first use)."""
-    users = [shapes[k] for k in _table_order(shapes) if isinstance(shapes[k], SDF)]
+    users = [shapes[k] for k in _table_order(shapes) if shapes[k].kind == USER]
     out = np.zeros((len(users), 2), dtype=np.int64)
     for u, s in enumerate(users):
-        assert isinstance(s, SDF)
         out[u] = s.addresses()
     return out
 
 
-def pack_table(shapes: Sequence[Shape], B: int, d: int) -> PackedTerrain:
+def pack_table(shapes: Sequence[Any], B: int, d: int) -> PackedTerrain:
     """The :class:`~.table.ShapeTable` of ``shapes`` for B worlds (each world's poses and heights a
     copy of the shapes' own), and each shape's row."""
     shapes = list(shapes)
@@ -119,27 +117,27 @@ def pack_table(shapes: Sequence[Shape], B: int, d: int) -> PackedTerrain:
     )
     table_shape = np.zeros((S, SHAPE_COLUMNS))
     pose = np.zeros((B, S, pose_size(d)))
-    fields = [s for s in (shapes[k] for k in order) if isinstance(s, HeightField)]
+    fields = [s for s in (shapes[k] for k in order) if s.kind == HEIGHTS]
     H = sum(f.grid_shape[0] * f.grid_shape[1] for f in fields)
     heights = np.zeros((B, H))
-    csgs = [s for s in (shapes[k] for k in order) if isinstance(s, _CSG)]
+    csgs = [s for s in (shapes[k] for k in order) if s.kind == CSG]
     offset = 0
     for row, k in enumerate(order):
         s = shapes[k]
         if s.kind < 0 or s.kind >= len(KIND_NAMES):
             raise TypeError(f"terrain shape {k} ({type(s).__name__}) has no kernel kind")
-        par = s._par6() if isinstance(s, HeightField) else s._par()
+        par = s._par6() if s.kind == HEIGHTS else s._par()
         table_shape[row, :P0] = (s.sign, s._bound(), s._inner())
         table_shape[row, P0 : P0 + len(par)] = par
-        if isinstance(s, HeightField):
+        if s.kind == HEIGHTS:
             n = s.grid_shape[0] * s.grid_shape[1]
             table_shape[row, INDEX] = offset
             heights[:, offset : offset + n] = s.heights.ravel()
             offset += n
-        elif isinstance(s, _CSG):
+        elif s.kind == CSG:
             table_shape[row, INDEX] = csgs.index(s)
-        elif isinstance(s, SDF):
-            table_shape[row, INDEX] = sum(isinstance(shapes[j], SDF) for j in order[:row])
+        elif s.kind == USER:
+            table_shape[row, INDEX] = sum(shapes[j].kind == USER for j in order[:row])
         pose[:, row] = _pose_row(s, d)
     prog, leaves = _program_arrays(csgs, d)
     table = ShapeTable(

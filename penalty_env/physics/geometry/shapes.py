@@ -39,6 +39,7 @@ import numpy as np
 
 from ... import _validate as V
 from .evaluate import evaluate
+from .pack import pack_table
 from .sdf import PLANE, ROUND
 from .table import OP_NEGATE
 
@@ -209,8 +210,6 @@ class Shape:
 
     def _single(self) -> Any:
         if self._packed is None:
-            from .pack import pack_table  # (pack knows every shape class)
-
             self._packed = pack_table([self], 1, self.dim).table
         return self._packed
 
