@@ -62,16 +62,17 @@ def lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, statics, model,
     for i in range(n):
         im = model.inv_mass[i]
         for k in range(D):
-            # each combination its own loop (constant flags into an inlined loop: no branch in
-            # the loop, which LLVM vectorises best)
+            # each combination its own call of the inlined loop, under a branch that fixes the
+            # flags: LLVM specialises each loop (no branch in it, which it vectorises best), and
+            # Numba compiles the function once (literal flags would make four)
             if has_ext and symplectic:
-                _update_lanes(X[i, k], V[i, k], A[i, k], E[i, k], W, im, g[k], dt, True, True)
+                _update_lanes(X[i, k], V[i, k], A[i, k], E[i, k], W, im, g[k], dt, has_ext, symplectic)
             elif has_ext:
-                _update_lanes(X[i, k], V[i, k], A[i, k], E[i, k], W, im, g[k], dt, True, False)
+                _update_lanes(X[i, k], V[i, k], A[i, k], E[i, k], W, im, g[k], dt, has_ext, symplectic)
             elif symplectic:
-                _update_lanes(X[i, k], V[i, k], A[i, k], E[i, k], W, im, g[k], dt, False, True)
+                _update_lanes(X[i, k], V[i, k], A[i, k], E[i, k], W, im, g[k], dt, has_ext, symplectic)
             else:
-                _update_lanes(X[i, k], V[i, k], A[i, k], E[i, k], W, im, g[k], dt, False, False)
+                _update_lanes(X[i, k], V[i, k], A[i, k], E[i, k], W, im, g[k], dt, has_ext, symplectic)
     for w in range(W):
         advance_shapes(model.shapes, block[w], dt, D)
 
