@@ -22,6 +22,7 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import _validate as V
+from .._jit import compile_notice
 from ..physics import Bowl, Motor, World, theory
 from ..physics.configure import configure
 from ..physics.stepping import runner as _runner
@@ -347,12 +348,13 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         make's compiling), at the price of a few microseconds per step against a sand step's
         hundreds."""
         call = self._step_calls[0]
-        if self._fused:
-            return _runner.entry_point(KE.step_worlds, call)
-        worlds, act, stepping, phys, _, ids = call[:6]
-        act_kernel = _runner.entry_point(KE.act_worlds, (worlds, act, stepping) + self._act_buffers(phys, ids))
-        observe_kernel = _runner.entry_point(KE.observe_worlds, (worlds, stepping, phys) + self._tail)
-        return act_kernel, observe_kernel
+        with compile_notice(f"{self.dim}D {self.world.runner.path} environment step"):
+            if self._fused:
+                return _runner.entry_point(KE.step_worlds, call)
+            worlds, act, stepping, phys, _, ids = call[:6]
+            act_kernel = _runner.entry_point(KE.act_worlds, (worlds, act, stepping) + self._act_buffers(phys, ids))
+            observe_kernel = _runner.entry_point(KE.observe_worlds, (worlds, stepping, phys) + self._tail)
+            return act_kernel, observe_kernel
 
     @staticmethod
     def _act_buffers(phys: Any, ids: np.ndarray) -> tuple:

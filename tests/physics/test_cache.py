@@ -100,3 +100,26 @@ def test_a_read_only_install_compiles_into_the_users_cache_and_loads_from_it(cop
     finally:
         for root, _dirs, _files in os.walk(copy):
             os.chmod(root, 0o755)
+
+
+def test_a_first_call_that_compiles_says_so_once_and_a_cached_one_is_silent(capsys):
+    """``_jit.compile_notice`` (around every first step of a World or an env): a newcomer waiting
+    on the compiler is told so, once per kind of kernel, with the time it took."""
+    import time
+
+    import numba
+
+    from penalty_env._jit import compile_notice
+
+    @numba.njit
+    def fresh(x):  # a new function: its first call compiles
+        return x + 1.5
+
+    with compile_notice("test-notice", after=0.01):  # (a compile takes longer than 10 ms)
+        fresh(1.0)
+    err = capsys.readouterr().err
+    assert "compiling the test-notice kernels" in err and "compiled in" in err
+    with compile_notice("test-notice", after=0.01):
+        fresh(2.0)  # compiled: nothing to say, and said once anyway
+        time.sleep(0.05)  # (past the notice's timer)
+    assert capsys.readouterr().err == ""

@@ -21,7 +21,7 @@ from ..geometry.evaluate import is_direct, is_moving, miss_test, to_local, to_pa
 from ..geometry.sdf import BOX, PLANE, sdf_box, sdf_plane
 from ..geometry.table import P0, SIGN
 from .law import normal_force, regularised_ratio
-from .terrain import _shape_force, terrain_law
+from .terrain import shape_force, terrain_law
 
 __all__ = ["pair_lanes", "direct_terrain_lanes", "summed_terrain_lanes", "shared_statics"]
 
@@ -179,7 +179,7 @@ def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
     """Shape s, static and at ``pose`` in every world of the block, of the primitive kind whose
     local distance is ``sdf`` (:func:`..geometry.sdf.sdf_plane`, ``sdf_box``: inlined, branches
     LLVM turns into selects), against sphere i in every lane, its force summed into G: the
-    arithmetic of :func:`.terrain._shape_force`, written out with no call and no per-lane load of
+    arithmetic of :func:`.terrain.shape_force`, written out with no call and no per-lane load of
     the pose in the loop (the miss and contact tests as masks), so LLVM vectorises it; bit for bit
     the scalar's. Compiled once per ``sdf``."""
     D = len(g)
@@ -231,7 +231,7 @@ def summed_terrain_lanes(i, X, V, A, G, W, worlds, statics, model, g):
             b = worlds[w]
             p2 = X[i, 2, w] if D == 3 else 0.0
             u2 = V[i, 2, w] if D == 3 else 0.0
-            touching, f0, f1, f2 = _shape_force(
+            touching, f0, f1, f2 = shape_force(
                 table, b, s, X[i, 0, w], X[i, 1, w], p2, V[i, 0, w], V[i, 1, w], u2, r, model, D
             )
             if touching:

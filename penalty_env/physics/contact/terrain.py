@@ -70,7 +70,7 @@ def _ball(b, i, u, D):
 
 
 @njit(hot=True)
-def _shape_force(table, b, s, p0, p1, p2, u0, u1, u2, r, model, D):
+def shape_force(table, b, s, p0, p1, p2, u0, u1, u2, r, model, D):
     """(touching, f0, f1, f2): shape s's force on a ball of radius r at p moving at u."""
     if shape_miss(table, b, s, p0, p1, p2, r, D):
         return False, 0.0, 0.0, 0.0
@@ -100,7 +100,7 @@ def summed_terrain(table, b, p0, p1, p2, u0, u1, u2, r, model, D):
     for s in range(table.kind.shape[0]):
         if is_direct(table, s):
             continue
-        touching, f0, f1, f2 = _shape_force(table, b, s, p0, p1, p2, u0, u1, u2, r, model, D)
+        touching, f0, f1, f2 = shape_force(table, b, s, p0, p1, p2, u0, u1, u2, r, model, D)
         if touching:
             g0 += f0
             g1 += f1
