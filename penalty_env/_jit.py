@@ -67,7 +67,8 @@ def _kernel_sources() -> list[str]:
     files = []
     for root, dirs, names in os.walk(_PACKAGE):
         dirs[:] = sorted(d for d in dirs if d != "__pycache__")
-        files += [os.path.join(root, n) for n in sorted(names) if n.endswith(".py")]
+        paths = (os.path.join(root, n) for n in sorted(names) if n.endswith(".py"))
+        files += [p for p in paths if os.path.isfile(p)]  # (not an editor's dangling lock link)
     return files
 
 
@@ -79,9 +80,10 @@ def source_hash() -> str:
     if not _HASH:
         digest = hashlib.sha256()
         for path in _kernel_sources():
-            digest.update(os.path.relpath(path, _PACKAGE).encode())
             with open(path, "rb") as f:
-                digest.update(f.read())
+                text = f.read()
+            name = os.path.relpath(path, _PACKAGE).replace(os.sep, "/").encode()
+            digest.update(b"%d:%s:%d:" % (len(name), name, len(text)) + text)
         _HASH.append(digest.hexdigest()[:20])
     return _HASH[0]
 

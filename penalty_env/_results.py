@@ -70,12 +70,18 @@ def cached(kind: str, key: tuple, compute: Callable[[], T]) -> T:
     except Exception:  # a miss: absent, truncated, or written by something else
         pass
     value = compute()
+    tmp = None
     try:
         os.makedirs(folder, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
         with os.fdopen(fd, "wb") as f:
             pickle.dump(value, f, protocol=pickle.HIGHEST_PROTOCOL)
+        os.chmod(tmp, 0o644)  # (mkstemp's 0600 would hide it from a shared cache's other users)
         os.replace(tmp, path)
+        tmp = None
     except OSError:  # a full or vanished disk only costs the next process the computation
         pass
+    finally:
+        if tmp is not None and os.path.exists(tmp):
+            os.unlink(tmp)
     return value

@@ -353,8 +353,8 @@ def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, g, task, table, 
 def act_worlds(worlds, act, stepping, status, throttle, ids):
     """:func:`step_worlds`' first part alone (the actions as throttles, the stepping worlds listed
     in ``ids``; returns how many, or the refusal): for a scene whose physics steps through
-    ``World.step``'s own kernel (the scalar path: sand, rolling balls), which then compiles once
-    for the scene and for everything else that steps a World of its kind (a sand bed's settling)."""
+    ``World.step``'s own kernel (the sand scenes), which then compiles once for the scene and for
+    everything else that steps a World of its kind (its bed's settling)."""
     return _act_on(worlds, act, stepping, status, throttle, ids)
 
 

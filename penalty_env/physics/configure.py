@@ -181,8 +181,20 @@ def configure(
         raise RuntimeError("no measured error models: run python -m penalty_env.bench accuracy --fit")
     args: tuple[Any, ...] = (max_impact_speed, penetration, restitution, accuracy, damping, terrain)
     args += (tuple(integrators), events, max_dt, max_force, gravity, energy_budget)
-    key = (tuple(m.tolist()), tuple(r.tolist()), repr(args), _error_models.MODELS_STAMP)
+    key = (tuple(m.tolist()), tuple(r.tolist()), _exact(args), _error_models.MODELS_STAMP)
     return cached("configure", key, lambda: _configured(m, r, *args))
+
+
+def _exact(value: Any) -> Any:
+    """``value`` as a results-cache key: every number by its type and its exact value (a NumPy
+    float32 0.04 is not the float 0.04, whatever its repr prints), containers item by item."""
+    if isinstance(value, (tuple, list)):
+        return tuple(_exact(v) for v in value)
+    if isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, str):
+        return (type(value).__name__, value if not isinstance(value, np.bool_) else bool(value))
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return (type(value).__name__, float(value).hex())
+    return (type(value).__name__, repr(value))
 
 
 def _configured(

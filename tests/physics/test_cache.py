@@ -106,6 +106,7 @@ def test_a_first_call_that_compiles_says_so_once_and_a_cached_one_is_silent(caps
     """``_jit.compile_notice`` (around every first step of a World or an env): a newcomer waiting
     on the compiler is told so, once per kind of kernel, with the time it took."""
     import time
+    import uuid
 
     import numba
 
@@ -115,11 +116,12 @@ def test_a_first_call_that_compiles_says_so_once_and_a_cached_one_is_silent(caps
     def fresh(x):  # a new function: its first call compiles
         return x + 1.5
 
-    with compile_notice("test-notice", after=0.01):  # (a compile takes longer than 10 ms)
+    what = f"test-notice-{uuid.uuid4().hex}"  # (said once per process: a new one per run)
+    with compile_notice(what, after=0.01):  # (a compile takes far longer than 10 ms)
         fresh(1.0)
     err = capsys.readouterr().err
-    assert "compiling the test-notice kernels" in err and "compiled in" in err
-    with compile_notice("test-notice", after=0.01):
+    assert f"compiling the {what} kernels" in err and "compiled in" in err
+    with compile_notice(what, after=0.01):
         fresh(2.0)  # compiled: nothing to say, and said once anyway
         time.sleep(0.05)  # (past the notice's timer)
     assert capsys.readouterr().err == ""

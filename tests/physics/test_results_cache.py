@@ -83,3 +83,18 @@ def test_a_settled_sand_bed_from_the_cache_is_the_settled_one_bit_for_bit(result
     again = sand.settled_bed(scene)
     np.testing.assert_array_equal(again, bed)
     assert again.tobytes() == bed.tobytes() and not again.flags.writeable
+
+
+def test_a_numpy_scalar_is_keyed_by_its_exact_value_not_its_repr(results_in, monkeypatch):
+    """np.float32(0.04) is 0.03999999910593033: its configuration is computed, not served the
+    float 0.04's (whatever NumPy's repr prints for it)."""
+    np.set_printoptions(legacy="1.25")  # (repr(np.float32(0.04)) == "0.04" there, as under NumPy 1.x)
+    try:
+        C.configure(*ARGS, **KW)
+        got = C.configure(*ARGS, **dict(KW, penetration=np.float32(0.04)))
+    finally:
+        np.set_printoptions(legacy=False)
+    monkeypatch.setenv("PENALTY_ENV_RESULTS_CACHE", "0")
+    want = C.configure(*ARGS, **dict(KW, penetration=np.float32(0.04)))
+    assert _bits(got) == _bits(want)
+    assert got.ks != C.configure(*ARGS, **KW).ks
