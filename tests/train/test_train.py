@@ -14,7 +14,7 @@ TRAIN = ROOT / "train" / "train_ppo.py"
 EVALUATE = ROOT / "train" / "evaluate.py"
 
 pytest.importorskip("stable_baselines3")
-# the README's sand run after its PenaltyBalls-v1 run (docs/granular.md, "PPO through sand")
+# the sand run after its PenaltyBalls-v1 run (docs/granular.md, "PPO through sand")
 V1_SEEDS = (0, 1, 2)  # the sand curriculum: the best of these v1 runs starts the sand run
 SAND_ARGS = ["--gamma", 0.99, "--learning-rate", 3e-4, "--timesteps", 2_000_000, "--eval-freq", 100_000]
 
@@ -168,7 +168,7 @@ def test_init_from_starts_where_the_earlier_run_left_off_and_refuses_what_does_n
 
 @pytest.mark.slow
 def test_the_sand_curriculum_reaches_80_percent_within_30_minutes(tmp_path):
-    """The README's sand run: PPO on PenaltyBalls-v1 (the default settings) with seeds 0, 1 and 2,
+    """docs/granular.md's sand run: PPO on PenaltyBalls-v1 (the default settings) with seeds 0, 1 and 2,
     then PPO on PenaltyBallsSand-v1 from the one that succeeded most on its own held-out v1
     episodes: at least 80% of 100 held-out sand episodes, all four runs together within 30
     minutes of training on 2 cores, where a random policy fails."""
