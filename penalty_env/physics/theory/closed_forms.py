@@ -154,6 +154,33 @@ def _first_root(f: Callable[[np.ndarray], np.ndarray], t_max: float, n: int = 40
     return 0.5 * (lo + hi)
 
 
+def _response(zeta: float, gamma: float) -> tuple[float, Callable, Callable, Callable]:
+    """(omega_d, delta, delta', clipped force) of delta'' + 2 zeta delta' + delta = gamma from
+    delta = 0, delta' = 1 (units v / omega0 and 1 / omega0): the functions take arrays of t."""
+    wd = math.sqrt(1.0 - zeta * zeta)
+    A = -gamma
+    Bc = (1.0 + zeta * A) / wd
+    D = -zeta * Bc - wd * A
+
+    def delta(t: np.ndarray) -> np.ndarray:
+        return gamma + _exp(-zeta * t) * (A * _cos(wd * t) + Bc * _sin(wd * t))
+
+    def ddelta(t: np.ndarray) -> np.ndarray:
+        return _exp(-zeta * t) * (_cos(wd * t) + D * _sin(wd * t))
+
+    def force(t: np.ndarray) -> np.ndarray:  # delta + 2 zeta ddelta, each libm call made once
+        x, c, s = _exp(-zeta * t), _cos(wd * t), _sin(wd * t)
+        return (gamma + x * (A * c + Bc * s)) + 2.0 * zeta * (x * (c + D * s))
+
+    return wd, delta, ddelta, force
+
+
+def _peak(wd: float, delta: Callable, ddelta: Callable) -> tuple[float, float]:
+    """(t, delta) at the response's first maximum (delta' = 0)."""
+    t_peak = _first_root(ddelta, 2.0 * math.pi / wd)
+    return t_peak, float(delta(np.array([t_peak]))[0])
+
+
 def contact_response(zeta: float, damping: str = "linear", gravity_ratio: float = 0.0) -> ContactResponse:
     """Exact solution of delta'' + 2 zeta delta' + delta = gamma, delta(0) = 0, delta'(0) = 1
     (overlap delta in units of v / omega0, time in 1 / omega0; gamma = g / (omega0 v) is gravity
@@ -170,24 +197,9 @@ def contact_response(zeta: float, damping: str = "linear", gravity_ratio: float 
     gamma = float(gravity_ratio)
     if not (0.0 <= zeta < 1.0):
         raise ValueError(f"zeta must be in [0, 1) for a contact that ends, got {zeta!r}")
-    wd = math.sqrt(1.0 - zeta * zeta)
-    A = -gamma
-    Bc = (1.0 + zeta * A) / wd
-    D = -zeta * Bc - wd * A
-
-    def delta(t: np.ndarray) -> np.ndarray:
-        return gamma + _exp(-zeta * t) * (A * _cos(wd * t) + Bc * _sin(wd * t))
-
-    def ddelta(t: np.ndarray) -> np.ndarray:
-        return _exp(-zeta * t) * (_cos(wd * t) + D * _sin(wd * t))
-
-    def force(t: np.ndarray) -> np.ndarray:  # delta + 2 zeta ddelta, each libm call made once
-        x, c, s = _exp(-zeta * t), _cos(wd * t), _sin(wd * t)
-        return (gamma + x * (A * c + Bc * s)) + 2.0 * zeta * (x * (c + D * s))
-
+    wd, delta, ddelta, force = _response(zeta, gamma)
     t_max = 2.0 * math.pi / wd
-    t_peak = _first_root(ddelta, t_max)
-    peak = float(delta(np.array([t_peak]))[0])
+    t_peak, peak = _peak(wd, delta, ddelta)
     if damping == "linear" or zeta == 0.0:
         # delta starts at 0 and grows: look for its return through zero after the peak
         t_end = t_peak + _first_root(lambda t: delta(t + t_peak), t_max)
@@ -216,12 +228,7 @@ def peak_overlap_ratio(zeta: float, gravity_ratio: float = 0.0) -> float:
     gamma = float(gravity_ratio)
     if not (0.0 <= zeta < 1.0):
         raise ValueError(f"zeta must be in [0, 1), got {zeta!r}")
-    wd = math.sqrt(1.0 - zeta * zeta)
-    A = -gamma
-    Bc = (1.0 + zeta * A) / wd
-    D = -zeta * Bc - wd * A
-    t_peak = _first_root(lambda t: _exp(-zeta * t) * (_cos(wd * t) + D * _sin(wd * t)), 2.0 * math.pi / wd)
-    return float(gamma + math.exp(-zeta * t_peak) * (A * math.cos(wd * t_peak) + Bc * math.sin(wd * t_peak)))
+    return _peak(*_response(zeta, gamma)[:3])[1]
 
 
 def restitution_for_zeta(zeta: float, damping: str = "linear") -> float:
