@@ -43,6 +43,7 @@ import time
 
 from ..physics import configure as CF
 from ..scenarios import PHASES
+from . import output_dir
 
 # the benchmark's parts, importable from here as before the split (the tests, the Ray tasks' cells)
 from .accuracy_fit import (  # noqa: F401
@@ -132,17 +133,6 @@ def _checked(ap: argparse.ArgumentParser, args: argparse.Namespace) -> tuple[tup
     return scenarios, models_path
 
 
-def _output_dir(args: argparse.Namespace) -> str:
-    """--out, else docs/ of the repository (a temporary folder for --quick), created."""
-    out = args.out or os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "docs")
-    if args.quick and args.out is None:
-        import tempfile
-
-        out = os.path.join(tempfile.gettempdir(), "penalty_env_bench_quick")  # keep docs/ for the full run
-    os.makedirs(out, exist_ok=True)
-    return out
-
-
 def _fit(rows, quick: bool, models_path: str) -> None:
     """Fit the error models and costs to the rows, write them to models_path and load them (so
     the charts' configure choice uses them)."""
@@ -193,7 +183,7 @@ def main(argv=None) -> None:
     ap = _parser()
     args = ap.parse_args(argv)
     scenarios, models_path = _checked(ap, args)
-    out = _output_dir(args)
+    out = output_dir(args)
     t0 = time.perf_counter()
     if args.from_csv:
         rows = read_csv(args.from_csv)

@@ -38,6 +38,7 @@ import time
 import numpy as np
 
 from ..physics import theory
+from . import output_dir
 
 # the measurements and charts, importable from here as before the split
 from .stability_plot import plot_map, plot_tunnelling
@@ -75,17 +76,6 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--env-steps", type=int, default=None, help="env steps of part (c) (default 100,000)")
     ap.add_argument("--skip", default="", help="comma-separated parts to skip: map, tunnelling, env")
     return ap
-
-
-def _output_dir(args: argparse.Namespace) -> str:
-    """--out, else docs/ of the repository (a temporary folder for --quick), created."""
-    out = args.out or os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "docs")
-    if args.quick and args.out is None:
-        import tempfile
-
-        out = os.path.join(tempfile.gettempdir(), "penalty_env_bench_quick")  # keep docs/ for the full run
-    os.makedirs(out, exist_ok=True)
-    return out
 
 
 def _map_part(quick: bool, out: str, failed: list[str]) -> None:
@@ -169,7 +159,7 @@ def _env_part(n: int, failed: list[str]) -> None:
 
 def main(argv=None) -> None:
     args = _parser().parse_args(argv)
-    out = _output_dir(args)
+    out = output_dir(args)
     skip = set(filter(None, args.skip.split(",")))
     t0 = time.perf_counter()
     failed = []

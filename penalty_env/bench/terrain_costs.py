@@ -37,6 +37,7 @@ from ..physics import (
     Union,
     World,
 )
+from .core import _rate
 
 __all__ = ["terrain_costs", "terrain_kinds", "main", "PATHS"]
 
@@ -79,12 +80,6 @@ def terrain_kinds(path: str = "scalar") -> list[tuple[str, object]]:
         keep = ("Sphere", "Bowl", "Plane", "Box", "HeightField", "Union of 4", "SDF (user)")
         kinds = [k for k in kinds if k[0] in keep]
     return kinds
-
-
-def _rate(world: World, target_s: float) -> float:
-    from .core import _rate as rate
-
-    return rate(world, target_s)
 
 
 def _rest_heights(shape: object, xy: np.ndarray, radius: float, overlap: float) -> np.ndarray:

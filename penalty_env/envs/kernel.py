@@ -61,8 +61,6 @@ OK = 0
 class TaskParams(NamedTuple):
     """The task's constants (SI units)."""
 
-    max_force: float  # motor stall force, N
-    max_speed: float  # motor no-load speed, m/s
     w_goal: float  # reward per metre the ball gets closer to the goal
     w_reach: float  # reward per metre the pusher gets closer to the push point
     success_bonus: float
@@ -73,7 +71,7 @@ class TaskParams(NamedTuple):
 
 
 class HeightMap(NamedTuple):
-    """The sand's height map around the ball (scenes with grains; ``cells`` 0 without): its constants."""
+    """The sand's height map around the ball (scenes with grains; None without): its constants."""
 
     first: int  # the first grain's index (the bodies come before)
     cells: int  # cells per horizontal axis

@@ -4,7 +4,7 @@ An observation is a flat float32 vector of fields, each d long (d = 2 or 3). A f
 position, its velocity, the goal, or a difference of two of them. :class:`ObservationLayout` lists
 the fields in order for a scene with ``n_obstacles`` obstacles, gives each field's slice, writes
 the Markdown table of the env docstring, and computes the bounds; the kernel
-(:func:`.fused_step.observe`) writes the fields in this order, unrolled (reading the table per
+(:func:`.kernel.observe`) writes the fields in this order, unrolled (reading the table per
 entry doubled the observation's instructions), and clips each entry to the same bounds;
 ``tests/envs/test_observation_layout.py`` checks the kernel against the table.
 

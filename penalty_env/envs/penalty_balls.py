@@ -17,11 +17,10 @@ from gymnasium import error, logger
 from .params import CHOICE_PARAMETERS, PARAMETERS, check_options, check_seed, coerce_action, render_fps
 from .render import HumanWindow, Renderer
 from .scene import PenaltyBallsScene
-from .vector import PenaltyBallsVectorEnv
+from .vector import MAX_EPISODE_STEPS, PenaltyBallsVectorEnv
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS", "SAND_V1_EPISODE_STEPS"]
 
-MAX_EPISODE_STEPS = 150  # registered for both ids: 6 s of simulated time at the default 0.04 s
 SAND_V1_EPISODE_STEPS = 300  # registered for the Sand-v1 ids: 12 s (the docstring's version history)
 
 

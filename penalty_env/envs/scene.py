@@ -180,7 +180,8 @@ class PenaltyBallsScene(SandScene, TerrainScene):
 
     def _make_world(self, p: dict[str, Any]) -> None:
         """The batched World the scene steps: its motor, its stepping path, its grid."""
-        d, start, common, n_grains = self.dim, self._start, self._common, self.n_grains
+        d, common, n_grains = self.dim, self._common, self.n_grains
+        start = self.__dict__.pop("_start")  # (the World keeps its own copy)
         self.mu = p["friction"]
         # physics="rolling": the balls spin (the World's rotation, regularised Coulomb friction at
         # the contact point, rolling resistance); the pusher's motor still pushes at its centre (so
@@ -234,8 +235,6 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         d, n_grains = self.dim, self.n_grains
         # --- the task's constants the kernel reads (the contact model is the World's own)
         self.task = KE.TaskParams(
-            max_force=p["max_force"],
-            max_speed=p["max_speed"],
             w_goal=W_GOAL,
             w_reach=W_REACH,
             success_bonus=SUCCESS_BONUS,
@@ -280,9 +279,8 @@ class PenaltyBallsScene(SandScene, TerrainScene):
                 top=2.0 * R,
             )
         )
-        if n_grains:
-            # how long the bed was settled and how fast its fastest grain still moved (set by settled_bed)
-            self.settle_time, self.settle_speed = math.nan, math.nan
+        if n_grains:  # (settled_bed also sets settle_time and settle_speed: how long the bed was
+            # settled and how fast its fastest grain still moved)
             self.bed = settled_bed(self)
         self._tail = (
             self.world.gravity,
@@ -296,7 +294,9 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         # the arguments of a whole-batch step, made once, and the kernel compiled for their types
         # (called without Numba's per-call type resolution: the arguments are fixed)
         self._step_calls = self._calls(self._chunks)
-        self._fused = not self.n_grains
+        phys = runner.physics
+        self._act_tail = (self.actions, self.stepping, phys.status, phys.control.throttle, self._ids[0])
+        self._observe_calls = self._observing(self._step_calls)
         self._step_kernel: Any = self._kernels()
 
     def __getstate__(self) -> dict:
@@ -349,31 +349,31 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         hundreds."""
         call = self._step_calls[0]
         with compile_notice(f"{self.dim}D {self.world.runner.path} environment step"):
-            if self._fused:
+            if not self.n_grains:
                 return _runner.entry_point(KE.step_worlds, call)
-            worlds, act, stepping, phys, _, ids = call[:6]
-            act_kernel = _runner.entry_point(KE.act_worlds, (worlds, act, stepping) + self._act_buffers(phys, ids))
-            observe_kernel = _runner.entry_point(KE.observe_worlds, (worlds, stepping, phys) + self._tail)
+            act_kernel = _runner.entry_point(KE.act_worlds, (call[0],) + self._act_tail)
+            observe_kernel = _runner.entry_point(KE.observe_worlds, self._observe_calls[0])
             return act_kernel, observe_kernel
 
     @staticmethod
-    def _act_buffers(phys: Any, ids: np.ndarray) -> tuple:
-        return phys.status, phys.control.throttle, ids
+    def _observing(calls: list[tuple]) -> list[tuple]:
+        """The arguments of :func:`.kernel.observe_worlds` in the step calls ``calls``."""
+        return [(c[0], c[2], c[3]) + c[6:] for c in calls]
 
     def _run(self, worlds: np.ndarray, chunks: Sequence[np.ndarray]) -> None:
         if self._step_kernel is None:  # unpickled or copied
             self._step_kernel = self._kernels()
-        calls = self._step_calls if chunks is self._chunks else self._calls(chunks)
-        if self._fused:
+        whole = chunks is self._chunks
+        calls = self._step_calls if whole else self._calls(chunks)
+        if not self.n_grains:
             codes = _runner.dispatch(self._step_kernel, calls)
             code = min(codes) if min(codes) < 0 else sum(codes)
         else:
             act_kernel, observe_kernel = self._step_kernel
-            ids = self._ids[0]
-            code = act_kernel(worlds, self.actions, self.stepping, *self._act_buffers(self.world.runner.physics, ids))
+            code = act_kernel(worlds, *self._act_tail)
             if code >= 0:
-                code = self.world.runner.step(self.substeps, ids[:code]) if code else KE.OK
-                _runner.dispatch(observe_kernel, [(c[0], c[2], c[3]) + c[6:] for c in calls])
+                code = self.world.runner.step(self.substeps, self._ids[0][:code]) if code else KE.OK
+                _runner.dispatch(observe_kernel, self._observe_calls if whole else self._observing(calls))
         if code != KE.OK:
             self._raise(code)
 

@@ -34,14 +34,13 @@ MODELS_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "
 ERROR_MODELS: dict = {}
 COST_PER_STEP: dict = {}
 EVENT_EXTRA_EVALS: dict = {}
-MODEL_SOURCE = ""
 MODELS_STAMP = ""  # a hash of the models file read last (results computed from them are keyed on it)
 
 
 def load_error_models(path: str = MODELS_PATH) -> None:
     """Make the error models and costs in ``path`` (the JSON that ``bench accuracy --fit`` writes)
     the ones :func:`configure` uses."""
-    global MODEL_SOURCE, MODELS_STAMP
+    global MODELS_STAMP
     with open(path, "rb") as f:
         raw = f.read()
     data: dict[str, Any] = json.loads(raw)
@@ -52,7 +51,6 @@ def load_error_models(path: str = MODELS_PATH) -> None:
     COST_PER_STEP.update(data["cost_per_step"])
     EVENT_EXTRA_EVALS.clear()
     EVENT_EXTRA_EVALS.update(data["event_extra_evals"])
-    MODEL_SOURCE = data.get("source", "")
 
 
 load_error_models()

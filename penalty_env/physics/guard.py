@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from . import theory
+from .geometry.pack import is_static_round
 from .model import inertia_factor
 
 __all__ = ["StabilityGuard", "STABILITY_SAFETY", "StartOverlapWarning", "EnergyDriftWarning"]
@@ -195,3 +196,28 @@ class StabilityGuard:
             StartOverlapWarning,
             stacklevel=3,
         )
+
+    def _deepest_contact(self, b: int) -> tuple[str, float, float, float]:
+        """(which bodies, ks, m_eff, the smaller radius) of world b's deepest contact, by brute force
+        (only when a start is refused; pairs only up to 4,096 balls)."""
+        x = self._state.positions[b]
+        r = self.radii
+        best, label, ks, m_eff, rs = -1.0, "some balls", self.ks, float(self.masses.min()), float(r.min())
+        if len(x) <= 4096:
+            gap = r[:, None] + r[None, :] - np.linalg.norm(x[:, None] - x[None, :], axis=-1)
+            frac = gap / np.minimum(r[:, None], r[None, :])
+            np.fill_diagonal(frac, -np.inf)
+            a, c = (int(k) for k in np.unravel_index(np.argmax(frac), frac.shape))
+            i, j = min(a, c), max(a, c)
+            if frac[i, j] > best:
+                best, label = float(frac[i, j]), f"balls {i} and {j}"
+                ks, m_eff, rs = self.ks, theory.effective_mass(self.masses[i], self.masses[j]), float(min(r[i], r[j]))
+        ev = self._evaluate(b, np.ascontiguousarray(x)) if self.terrain else None
+        for s, shape in enumerate(self.terrain):
+            phi = shape.phi(x) if is_static_round(shape) else ev[:, self._rows[s], 0]  # type: ignore[index]
+            pen = (r - phi) / r
+            k = int(np.argmax(pen))
+            if pen[k] > best:
+                best, label = float(pen[k]), f"ball {k} and terrain shape {s}"
+                ks, m_eff, rs = self.ks_terrain, float(self.masses[k]), float(r[k])
+        return label, ks, m_eff, rs

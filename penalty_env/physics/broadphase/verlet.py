@@ -93,7 +93,7 @@ class LargeWorld(NamedTuple):
     escapes: np.ndarray  # (max_escapes,) the escaped slots, in the order they escaped
     moved: np.ndarray  # (threads,) per thread: how many slots escaped in the last step (-1: not finite)
     pairs: np.ndarray  # (threads, PAIR_ROWS, max(PAIR_BLOCK, cap)) per thread: the force pass's block of pairs
-    candidates: np.ndarray  # (threads, n) int32 per thread: a ball's partners from the grid
+    candidates: np.ndarray  # (n,) int32: an escaped ball's partners from the grid (serial pass)
     skin: float  # list reach beyond contact
     state: np.ndarray  # (4,) int64: [list valid, largest count at the last build, builds so far, escaped]
 
@@ -120,7 +120,7 @@ def new_large_world(
         escapes=np.zeros(max_escapes, dtype=np.int64),
         moved=np.zeros(threads, dtype=np.int64),
         pairs=np.zeros((threads, pair_rows, max(pair_block, cap))),
-        candidates=np.zeros((threads, n), dtype=np.int32),
+        candidates=np.zeros(n, dtype=np.int32),
         skin=skin,
         state=np.zeros(4, dtype=np.int64),
     )
@@ -189,9 +189,9 @@ def build_list(grid, xs, sm, lw, threads, g):
     capacity leaves the list invalid (the caller grows it and retries)."""
     D = len(g)
     n = xs.shape[1]
-    nbr, cnt, near, xref, cand = lw.nbr, lw.count, lw.near, lw.xref, lw.candidates
+    nbr, cnt, near, xref = lw.nbr, lw.count, lw.near, lw.xref
     skin = lw.skin
-    threads = max(1, min(threads, cand.shape[0]))
+    threads = max(1, min(threads, lw.moved.shape[0]))
     for t in prange(threads):
         # (an int64 copy of t: a prange index may be unsigned, and int64 with uint64 unifies to float)
         first = np.int64(t)

@@ -185,14 +185,14 @@ def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
     D = len(g)
     table = model.shapes
     r = model.radii[i]
-    sg = table.shape[s, SIGN]
+    par = table.shape[s]
+    sg, a0, a1, a2 = par[SIGN], par[P0], par[P0 + 1], par[P0 + 2]
     ks, kd, clip, mu, kf = model.ks_terrain, model.kd_terrain, model.no_tension, model.mu, model.kf
     for w in range(W):
         p0, p1, p2 = X[i, 0, w], X[i, 1, w], (X[i, 2, w] if D == 3 else 0.0)
-        miss = miss_test(pose, table.shape[s], p0, p1, p2, r, D)
+        miss = miss_test(pose, par, p0, p1, p2, r, D)
         q0, q1, q2 = to_local(pose, p0, p1, p2, D)
-        par = table.shape[s]
-        phi, n0, n1, n2 = sdf(q0, q1, q2, par[P0], par[P0 + 1], par[P0 + 2], D)
+        phi, n0, n1, n2 = sdf(q0, q1, q2, a0, a1, a2, D)
         m0, m1, m2 = to_parent(pose, n0, n1, n2, D)
         phi, m0, m1, m2 = sg * phi, sg * m0, sg * m1, sg * m2
         pen = r - phi

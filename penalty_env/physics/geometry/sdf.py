@@ -45,7 +45,6 @@ __all__ = [
     "CSG",
     "USER",
     "KIND_NAMES",
-    "PRIMITIVES",
     "sdf_plane",
     "sdf_round",
     "sdf_box",
@@ -60,7 +59,6 @@ __all__ = [
 # Shape kinds: the shape table's ``kind`` column (and a CSG leaf's code for the primitives)
 PLANE, ROUND, BOX, CAPSULE, CYLINDER, CONE, TORUS, HEIGHTS, CSG, USER = range(10)
 KIND_NAMES = ("plane", "round", "box", "capsule", "cylinder", "cone", "torus", "heights", "csg", "user")
-PRIMITIVES = (PLANE, ROUND, BOX, CAPSULE, CYLINDER, CONE, TORUS)  # the kinds a CSG leaf may be
 
 
 @njit(hot=True)

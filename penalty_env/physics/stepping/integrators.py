@@ -45,12 +45,10 @@ __all__ = [
     "integrate",
     "is_work",
     "symplectic_euler_into",
-    "FORCE_EVALUATIONS",
 ]
 
 INTEGRATORS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4", "implicit_euler")
 # full contact passes per step (implicit Euler: one, plus its CG iterations' products)
-FORCE_EVALUATIONS = {"explicit_euler": 1, "symplectic_euler": 1, "velocity_verlet": 1, "rk4": 4, "implicit_euler": 1}
 
 
 class ExplicitEulerWork(NamedTuple):

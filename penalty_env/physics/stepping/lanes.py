@@ -42,13 +42,13 @@ SCRATCH_ROWS = 6
 
 
 @njit(hot=True)
-def lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, statics, model, g):
+def lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, summed, statics, model, g):
     """One symplectic (or explicit) Euler step of the W worlds of a block (lane w holds world
-    ``block[w]``), all pairs; kinematic shapes move on after it. ``statics``: the block's
-    :func:`..contact.lanes.shared_statics`."""
+    ``block[w]``), all pairs; kinematic shapes move on after it. ``summed``: the table holds
+    shapes other than static spheres and bowls; ``statics``: the block's
+    :func:`..contact.lanes.shared_statics` (both fixed while a block is stepped)."""
     D = len(g)
     n = X.shape[0]
-    summed = has_summed_shapes(model.shapes)
     for i in range(n):
         for k in range(D):
             for w in range(W):
@@ -158,13 +158,14 @@ def run_lanes(symplectic, worlds, nsteps, dt, x, v, scratch, control, model, g, 
         W = min(LANES, worlds.shape[0] - c)
         block = worlds[c : c + W]
         _load_block(block, W, x, v, X, V)
+        summed = has_summed_shapes(model.shapes)
         statics = shared_statics(model.shapes, block, W, D)
         if has_ext:
             _load_inputs(block, W, control, motors, E, T)
         for _ in range(nsteps):
             if motors.ball.shape[0] > 0:
                 _motors_lanes(block, W, V, E, T, control, motors)
-            lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, statics, model, g)
+            lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, summed, statics, model, g)
         _store_block(block, W, x, v, X, V)
         for w in range(W):
             b = block[w]

@@ -177,7 +177,7 @@ def _shape_forces(full, xs, vs, a, near, escaped, ne, D):
                 a[0, i, 2] += f2
 
 
-@njit(hot=True)
+@njit
 def _rebuild(lw, xs, vs, es, has_ext, sm, threads, g, full):
     """Re-sort the storage by grid cell (balls that touch sit close in memory), then list every
     pair within reach. False if a position is not finite; leaves ``lw.state[0]`` at 0 when a ball
@@ -342,7 +342,7 @@ def run_large(integ, nsteps, dt, x, v, ext, has_ext, sm, g, status, lw, threads,
         # parallel, then the odd ones, each advancing itself and the next once its forces are in.
         # What a ball receives, and in which order, depends on the slabs, never on the threads.
         if ne > 0:
-            _escaped_contacts(xs, vs, a, grid, sm, escaped, escapes, ne, lw.candidates[0], D)
+            _escaped_contacts(xs, vs, a, grid, sm, escaped, escapes, ne, lw.candidates, D)
         _shape_forces(full, xs, vs, a, near, escaped, ne, D)
         # cells in one layer along the last axis (not "layer = 1; layer *= ...": the literal 1 typed
         # one of the two passes' calls of _slab_forces apart, and compiled it twice)
