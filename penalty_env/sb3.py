@@ -83,6 +83,7 @@ class PenaltyBallsVecEnv(VecEnv):
         self.metadata: dict[str, Any] = {**self.metadata, "render_fps": render_fps(self.scene.control_period)}
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._steps = np.zeros(self.num_envs, dtype=np.int64)
+        self._first_steps = np.zeros(self.num_envs, dtype=np.int64)  # stagger(): step counts after the next reset
         self._actions: np.ndarray | None = None
         self._renderer: Renderer | None = None
 
@@ -95,11 +96,22 @@ class PenaltyBallsVecEnv(VecEnv):
             if seed is not None or self._rngs[i] is None:
                 self._rngs[i] = seeding.np_random(seed)[0]
         self.scene.reset_worlds(range(self.num_envs), self._rngs)
-        self._steps[:] = 0
+        self._steps[:] = self._first_steps
+        self._first_steps[:] = 0
         self.reset_infos = [self.scene.info(i) for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
         return self.scene.obs.copy()
+
+    def stagger(self, seed: int | None = None) -> None:
+        """Put the worlds' episodes out of phase: after the next ``reset()`` only, world i's first
+        episode is truncated after ``n_i`` steps, drawn uniformly from 1 to ``max_episode_steps``
+        (``seed`` seeds the draw; None: fresh entropy). Every later episode is whole. Without it
+        every world starts together, so a short rollout over many worlds holds one phase of an
+        episode only (the trainer's lever: ``train/train_ppo.py``). The worlds' states, and so the
+        episodes' seeds, are unchanged; the staggered first episodes end ``TimeLimit.truncated``."""
+        n = np.random.default_rng(seed).integers(1, self.max_episode_steps + 1, size=self.num_envs)
+        self._first_steps[:] = self.max_episode_steps - n
 
     def step_async(self, actions: np.ndarray) -> None:
         shape = (self.num_envs, self.scene.action_size)

@@ -31,14 +31,25 @@ def parse_env_kwargs(pairs: list[str]) -> dict[str, Any]:
     return out
 
 
-def make_env(env_id: str, n_envs: int, seed: int, env_kwargs: dict[str, Any], render_mode: str | None = None):
-    """Our batched SB3 VecEnv (one Numba call steps all worlds), wrapped in VecMonitor."""
+def make_env(
+    env_id: str,
+    n_envs: int,
+    seed: int,
+    env_kwargs: dict[str, Any],
+    render_mode: str | None = None,
+    stagger: bool = False,
+):
+    """Our batched SB3 VecEnv (one Numba call steps all worlds), wrapped in VecMonitor;
+    ``stagger``: the worlds' first episodes out of phase (``PenaltyBallsVecEnv.stagger``)."""
     from penalty_env.sb3 import make_vec_env
 
     kwargs = dict(env_kwargs)
     if render_mode is not None:
         kwargs["render_mode"] = render_mode
-    return make_vec_env(env_id=env_id, n_envs=n_envs, seed=seed, **kwargs)
+    venv = make_vec_env(env_id=env_id, n_envs=n_envs, seed=seed, **kwargs)
+    if stagger:
+        venv.venv.stagger(seed)
+    return venv
 
 
 def run_episodes(venv, act: Callable[[np.ndarray], np.ndarray], n_episodes: int) -> dict[str, Any]:

@@ -1,27 +1,33 @@
 #!/usr/bin/env python
 """Train Stable-Baselines3 PPO on PenaltyBalls (the project's main job).
 
-    python train/train_ppo.py                       # PenaltyBalls-v0, 16 worlds, seed 0
+    python train/train_ppo.py                                # PenaltyBalls-v0, its tuned settings, seed 0
     python train/train_ppo.py --seed 1 --out runs/s1
+    python train/train_ppo.py --env-id PenaltyBalls-v1       # rolling balls
+    python train/train_ppo.py --env-id PenaltyBallsSand-v1   # sand, from scratch: a curriculum inside
     python train/train_ppo.py --env-id PenaltyBalls2D-v0 --env-kwarg n_obstacles=2
-    python train/train_ppo.py --env-id PenaltyBalls-v1 --out runs/v1 \
-      && python train/train_ppo.py --env-id PenaltyBallsSand-v1 --init-from runs/v1 --gamma 0.99 \
-           --learning-rate 3e-4 --timesteps 2000000 --eval-freq 100000
 
-The worlds are stepped by our native SB3 VecEnv (one Numba call for all of them), with
-observation and reward normalisation (VecNormalize). An evaluation callback measures the success
-rate on held-out seeds as training goes. ``--init-from RUN`` starts from a previous run's policy
-and normalisation statistics (a curriculum: the sand envs start from a policy trained without
-sand; see :func:`init_from`). The run folder (``--out``) receives:
+Each id trains with its own tuned settings (``train/_tuned.py``; docs/training.md says how they
+were chosen); any flag overrides them. The worlds are stepped by our native SB3 VecEnv (one Numba
+call for all of them), their first episodes staggered (``PenaltyBallsVecEnv.stagger``), with
+observation and reward normalisation (VecNormalize). Every ``--eval-freq`` steps the policy plays
+the same ``--eval-episodes`` held-out episodes, timed apart from the training. On a terminal a
+progress bar shows steps/s, the success so far and the time left (``--quiet``: nothing). A sand
+id first trains its curriculum's id (``run``); ``--init-from RUN`` starts from a previous run's
+policy and normalisation statistics instead (:func:`init_from`). The run folder (``--out``)
+receives:
 
   model.zip           the trained policy
   vecnormalize.pkl    the observation/reward normalisation statistics
   learning_curve.png  success rate and return against environment steps
   policy.gif          the trained policy, two episodes
   evaluations.csv     the curve's data
-  summary.json        timesteps, wall_time_s, env_steps_per_s, success_rate and mean_return
-                      (100 episodes on held-out seeds), random_success_rate and
-                      random_mean_return (a random policy on the same seeds), and the settings
+  summary.json        timesteps, train_time_s (the training without its evaluations), wall_time_s,
+                      time_split (env stepping, policy and rollout, update, evaluation),
+                      env_steps_per_s, success_rate and mean_return (100 episodes on held-out
+                      seeds), random_success_rate and random_mean_return (a random policy on the
+                      same seeds), the settings, and a sand run's ``curriculum`` stage
+  stage1-<id>/        a sand run's first stage, a run folder of its own
 
 ``train(settings, out)`` is the run itself, importable: this CLI and the Ray Tune sweep
 (``train/sweep.py``) both call it, so a trial of a sweep is exactly this script's run.
@@ -34,7 +40,6 @@ import csv
 import json
 import math
 import sys
-import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -42,22 +47,14 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import _common as C  # noqa: E402
+import _tuned  # noqa: E402
 
-DEFAULTS = dict(
+# The defaults: PenaltyBalls-v0's tuned settings. Another id's run takes its own (_tuned.TUNED),
+# and the command line or train()'s settings override either.
+DEFAULTS: dict[str, Any] = dict(
     env_id="PenaltyBalls-v0",
-    timesteps=600_000,
-    n_envs=16,
-    n_steps=256,
-    batch_size=1024,
-    n_epochs=10,
-    learning_rate=1e-3,
-    gamma=0.98,
-    gae_lambda=0.95,
-    ent_coef=0.0,
-    clip_range=0.2,
-    net_arch="128,128",
-    eval_freq=50_000,
-    eval_episodes=40,
+    **{k: v for k, v in _tuned.TUNED["PenaltyBalls-v0"].items() if k != "threads"},
+    eval_episodes=100,
     final_episodes=100,
 )
 
@@ -67,12 +64,16 @@ SETTINGS: dict[str, Any] = dict(
     seed=0,
     env_kwargs={},
     normalize=True,
-    threads=1,  # torch threads
+    threads=_tuned.TUNED["PenaltyBalls-v0"]["threads"],  # torch threads
     numba_threads=None,  # None: Numba's own default (every core)
     tensorboard=None,
     init_from=None,  # a run folder whose policy and normalisation this run starts from (init_from())
-    progress=True,
+    progress=True,  # a progress bar when standard output is a terminal
+    quiet=False,  # no progress bar and no evaluation lines
+    stop_at=None,  # stop at the first evaluation with at least this success rate (None: never)
     gif=True,
+    stagger=True,  # the training worlds' first episodes out of phase (PenaltyBallsVecEnv.stagger)
+    curriculum=True,  # main(): run the id's curriculum stage first (_tuned.CURRICULUM) when it has one
 )
 # the settings summary.json records under "hyperparameters"
 HYPERPARAMETERS = (
@@ -85,6 +86,7 @@ HYPERPARAMETERS = (
     "gae_lambda",
     "ent_coef",
     "clip_range",
+    "log_std_init",
     "net_arch",
 )
 # integer settings and their lower bound
@@ -107,6 +109,7 @@ _FLOATS = {
     "gae_lambda": (0.0, 1.0, True, True),
     "ent_coef": (0.0, math.inf, True, False),
     "clip_range": (0.0, math.inf, False, False),
+    "log_std_init": (-math.inf, math.inf, False, False),
 }
 
 
@@ -118,7 +121,8 @@ def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
         raise ValueError(
             f"unknown setting {unknown[0]!r} (value {settings[unknown[0]]!r}); the settings are: {', '.join(SETTINGS)}"
         )
-    s = {**SETTINGS, **settings}
+    env_id = settings.get("env_id", SETTINGS["env_id"])
+    s = {**SETTINGS, **(_tuned.tuned(env_id) if isinstance(env_id, str) else {}), **settings}
     for key, low in _INTS.items():
         v = s[key]
         if isinstance(v, bool) or not isinstance(v, int) or v < low:
@@ -154,19 +158,40 @@ def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
         s["init_from"] = str(Path(src).resolve())
     if not isinstance(s["env_id"], str):
         raise ValueError(f"setting 'env_id' must be a registered env id, got {s['env_id']!r}")
-    for key in ("normalize", "progress", "gif"):
+    stop = s["stop_at"]
+    if stop is not None and (isinstance(stop, bool) or not isinstance(stop, (int, float)) or not 0.0 < stop <= 1.0):
+        raise ValueError(f"setting 'stop_at' must be None or a success rate in (0, 1], got {stop!r}")
+    for key in ("normalize", "progress", "quiet", "gif", "curriculum", "stagger"):
         if not isinstance(s[key], bool):
             raise ValueError(f"setting {key!r} must be true or false, got {s[key]!r}")
     s["env_kwargs"] = dict(s["env_kwargs"])
     return s
 
 
+# the settings with a per-id tuned value: (name, type, help)
+_TUNABLE = (
+    ("timesteps", int, "environment steps"),
+    ("n_envs", int, "parallel worlds"),
+    ("n_steps", int, "PPO rollout length per world"),
+    ("batch_size", int, "PPO minibatch"),
+    ("n_epochs", int, "PPO epochs per update"),
+    ("learning_rate", float, "Adam step size, linearly decayed"),
+    ("gamma", float, "discount"),
+    ("gae_lambda", float, "GAE lambda"),
+    ("ent_coef", float, "entropy bonus"),
+    ("clip_range", float, "PPO clip"),
+    ("log_std_init", float, "initial log standard deviation of the actions"),
+    ("net_arch", str, "hidden layer sizes, comma separated"),
+    ("eval_freq", int, "env steps between held-out evaluations"),
+    ("threads", int, "torch threads"),
+)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="train_ppo.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    d = DEFAULTS
-    p.add_argument("--env-id", default=d["env_id"], help="registered env id (default: %(default)s)")
+    p.add_argument("--env-id", default=DEFAULTS["env_id"], help="registered env id (default: %(default)s)")
     p.add_argument(
         "--env-kwarg",
         action="append",
@@ -174,44 +199,29 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="env keyword argument, repeatable; VALUE parsed as JSON (e.g. n_obstacles=2)",
     )
-    p.add_argument("--timesteps", type=int, default=d["timesteps"], help="environment steps (default: %(default)s)")
-    p.add_argument("--n-envs", type=int, default=d["n_envs"], help="parallel worlds (default: %(default)s)")
     p.add_argument(
         "--seed", type=int, default=0, help="seed of the worlds, the policy and torch (default: %(default)s)"
     )
     p.add_argument("--out", type=Path, default=None, help="run folder (default: runs/ppo-<env>-seed<seed>)")
-    p.add_argument(
-        "--n-steps", type=int, default=d["n_steps"], help="PPO rollout length per world (default: %(default)s)"
-    )
-    p.add_argument("--batch-size", type=int, default=d["batch_size"], help="PPO minibatch (default: %(default)s)")
-    p.add_argument("--n-epochs", type=int, default=d["n_epochs"], help="PPO epochs per update (default: %(default)s)")
-    p.add_argument(
-        "--learning-rate",
-        type=float,
-        default=d["learning_rate"],
-        help="Adam step size, linearly decayed (default: %(default)s)",
-    )
-    p.add_argument("--gamma", type=float, default=d["gamma"], help="discount (default: %(default)s)")
-    p.add_argument("--gae-lambda", type=float, default=d["gae_lambda"], help="GAE lambda (default: %(default)s)")
-    p.add_argument("--ent-coef", type=float, default=d["ent_coef"], help="entropy bonus (default: %(default)s)")
-    p.add_argument("--clip-range", type=float, default=d["clip_range"], help="PPO clip (default: %(default)s)")
-    p.add_argument(
-        "--net-arch", default=d["net_arch"], help="hidden layer sizes, comma separated (default: %(default)s)"
-    )
+    # the id's tuned value when not given (train/_tuned.py; PenaltyBalls-v0's is shown)
+    for name, kind, text in _TUNABLE:
+        p.add_argument(
+            "--" + name.replace("_", "-"),
+            type=kind,
+            default=None,
+            help=f"{text} (default: the id's tuned value; PenaltyBalls-v0: {SETTINGS[name]})",
+        )
     p.add_argument("--no-normalize", action="store_true", help="disable VecNormalize")
-    p.add_argument(
-        "--eval-freq", type=int, default=d["eval_freq"], help="env steps between evaluations (default: %(default)s)"
-    )
     p.add_argument(
         "--eval-episodes",
         type=int,
-        default=d["eval_episodes"],
-        help="episodes per evaluation during training (default: %(default)s)",
+        default=DEFAULTS["eval_episodes"],
+        help="held-out episodes per evaluation during training, one per world (default: %(default)s)",
     )
     p.add_argument(
         "--final-episodes",
         type=int,
-        default=d["final_episodes"],
+        default=DEFAULTS["final_episodes"],
         help="episodes of the final held-out evaluation (default: %(default)s)",
     )
     p.add_argument(
@@ -228,10 +238,25 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="RUN",
         help="start from this run folder's policy and normalisation statistics (a curriculum; see init_from)",
     )
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (evaluations are printed instead)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no evaluation lines")
+    p.add_argument(
+        "--stop-at",
+        type=float,
+        default=None,
+        metavar="RATE",
+        help="stop at the first evaluation whose success rate is at least RATE (e.g. 0.9)",
+    )
     p.add_argument("--no-gif", action="store_true", help="skip the GIF of the trained policy")
     p.add_argument(
-        "--threads", type=int, default=1, help="torch threads (default: %(default)s: the physics uses the other core)"
+        "--no-stagger",
+        action="store_true",
+        help="start the training worlds' episodes together (PenaltyBallsVecEnv.stagger, on by default)",
+    )
+    p.add_argument(
+        "--no-curriculum",
+        action="store_true",
+        help="a sand id from scratch, without its curriculum's first stage (train/_tuned.py)",
     )
     p.add_argument(
         "--numba-threads",
@@ -244,17 +269,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 def settings_from_args(args: argparse.Namespace) -> dict[str, Any]:
     """The run's settings (:data:`SETTINGS`) from the parsed command line."""
-    s = {k: getattr(args, k) for k in DEFAULTS}
+    s = {k: getattr(args, k) for k in DEFAULTS if getattr(args, k, None) is not None}
+    if args.threads is not None:
+        s["threads"] = args.threads
     s.update(
         seed=args.seed,
         env_kwargs=C.parse_env_kwargs(args.env_kwarg),
         normalize=not args.no_normalize,
-        threads=args.threads,
         numba_threads=args.numba_threads,
         tensorboard=args.tensorboard,
         init_from=args.init_from,
         progress=not args.no_progress,
+        quiet=args.quiet,
+        stop_at=args.stop_at,
         gif=not args.no_gif,
+        curriculum=not args.no_curriculum,
+        stagger=not args.no_stagger,
     )
     return s
 
@@ -270,21 +300,43 @@ def main(argv=None) -> dict:
         settings = check_settings(settings_from_args(args))
     except ValueError as e:
         parser.error(str(e))
-    return train(settings, args.out or default_out(settings))
+    return run(settings, args.out or default_out(settings))
+
+
+def run(settings: Mapping[str, Any], out: Path) -> dict[str, Any]:
+    """:func:`train`, after the id's curriculum stage when it has one (``_tuned.CURRICULUM``; the
+    ``curriculum`` setting on, no ``init_from`` given): that id's tuned run, into
+    ``out/stage1-<id>``, until its held-out success reaches ``_tuned.CURRICULUM_STOP_AT`` (or its
+    budget ends); then this id's run starts from its policy. The summary's ``curriculum`` entry
+    holds the first stage's figures, ``total_train_time_s`` both stages' training time."""
+    s = check_settings(settings)
+    first = _tuned.CURRICULUM.get(s["env_id"].split(":")[-1])
+    if first is None or not s["curriculum"] or s["init_from"] is not None:
+        return train(s, out)
+    stage_out = Path(out) / f"stage1-{first}"
+    keep = ("seed", "numba_threads", "progress", "quiet", "normalize")
+    stage = train(
+        {"env_id": first, **{k: s[k] for k in keep}, "stop_at": _tuned.CURRICULUM_STOP_AT, "gif": False},
+        stage_out,
+    )
+    summary = train({**s, "init_from": str(stage_out)}, out, stage=stage)
+    return summary
 
 
 def train(
-    settings: Mapping[str, Any], out: Path, on_eval: Callable[[dict[str, Any]], None] | None = None
+    settings: Mapping[str, Any],
+    out: Path,
+    on_eval: Callable[[dict[str, Any]], None] | None = None,
+    stage: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """One training run: PPO with ``settings`` (names and defaults in :data:`SETTINGS`), its run
     folder written to ``out`` (the files listed in the module docstring). Returns the summary
     (summary.json). ``on_eval`` is called with each point of the learning curve as it is measured
-    (the sweep reports them to Ray Tune)."""
+    (the sweep reports them to Ray Tune). ``stage``: the summary of a curriculum's first stage
+    that this run starts from (:func:`run`), recorded in this run's summary."""
     s = check_settings(settings)
-    import numpy as np
     import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.callbacks import EvalCallback
+    from _callbacks import HeldOutEval, Progress, TimedPPO, TimedVecEnv, TrainClock, show_progress
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -300,48 +352,31 @@ def train(
     out.mkdir(parents=True, exist_ok=True)
     set_random_seed(seed)
 
-    venv = C.make_env(env_id, s["n_envs"], seed, env_kwargs)
-    eval_env = C.make_env(env_id, min(s["n_envs"], s["eval_episodes"]), C.EVAL_SEED_OFFSET + seed, env_kwargs)
+    venv = timed_env = TimedVecEnv(C.make_env(env_id, s["n_envs"], seed, env_kwargs, stagger=s["stagger"]))
     if s["normalize"]:
         venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=s["gamma"])
-        eval_env = VecNormalize(eval_env, norm_obs=True, norm_reward=False, training=False)
+    vecnorm = venv if isinstance(venv, VecNormalize) else None
 
     curve: list[dict] = []
+    clock = TrainClock()
+    eval_seed = C.EVAL_SEED_OFFSET + seed
+    eval_env = C.make_env(env_id, s["eval_episodes"], eval_seed, env_kwargs)
 
-    class CurveCallback(EvalCallback):
-        """EvalCallback that also keeps (steps, success rate, mean return) for the curve."""
-
-        def _on_step(self) -> bool:
-            cont = super()._on_step()
-            if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:  # an evaluation just ran
-                curve.append(
-                    {
-                        "timesteps": int(self.num_timesteps),
-                        "success_rate": float(np.mean(self._is_success_buffer)) if self._is_success_buffer else 0.0,
-                        "mean_return": float(self.last_mean_reward),
-                        "wall_time_s": time.perf_counter() - t0,
-                    }
-                )
-                if not s["progress"]:
-                    c = curve[-1]
-                    print(
-                        f"[eval] steps={c['timesteps']:>9,} success={c['success_rate']:.2f} return={c['mean_return']:.2f}",
-                        flush=True,
-                    )
-                if on_eval is not None:
-                    on_eval(dict(curve[-1]))
-            return cont
-
-    eval_cb = CurveCallback(
+    bar = s["progress"] and show_progress(s["quiet"])
+    held_out = HeldOutEval(
         eval_env,
-        n_eval_episodes=s["eval_episodes"],
-        eval_freq=max(1, s["eval_freq"] // s["n_envs"]),
-        deterministic=True,
-        verbose=0,
+        eval_seed,
+        vecnorm,
+        every=s["eval_freq"],
+        clock=clock,
+        curve=curve,
+        on_eval=on_eval,
+        stop_at=s["stop_at"],
+        log=None if (bar or s["quiet"]) else lambda line: print(line, flush=True),
     )
     hidden = [int(h) for h in s["net_arch"].split(",") if h.strip()]
     lr0 = s["learning_rate"]
-    model = PPO(
+    model = TimedPPO(
         "MlpPolicy",
         venv,
         n_steps=s["n_steps"],
@@ -352,7 +387,7 @@ def train(
         gae_lambda=s["gae_lambda"],
         ent_coef=s["ent_coef"],
         clip_range=s["clip_range"],
-        policy_kwargs=dict(net_arch=dict(pi=hidden, vf=hidden)),
+        policy_kwargs=dict(net_arch=dict(pi=hidden, vf=hidden), log_std_init=s["log_std_init"]),
         tensorboard_log=str(s["tensorboard"]) if s["tensorboard"] else None,
         seed=seed,
         device="cpu",
@@ -366,12 +401,21 @@ def train(
         f"{s['n_envs']} worlds, seed {seed}{start} -> {out}",
         flush=True,
     )
-    t0 = time.perf_counter()
-    model.learn(total_timesteps=s["timesteps"], callback=eval_cb, progress_bar=s["progress"])
-    wall = time.perf_counter() - t0
+    callbacks: list = [held_out]
+    if bar:
+        callbacks.append(Progress(s["timesteps"], curve, desc=env_id))
+    clock.start()
+    model.learn(total_timesteps=s["timesteps"], callback=callbacks)
+    wall, train_time = clock.wall_time(), clock.train_time()
+    env_time = timed_env.time
+    time_split = {
+        "env_step_s": round(env_time, 2),
+        "policy_and_rollout_s": round(model.rollout_time - env_time - held_out.eval_time, 2),
+        "update_s": round(model.update_time, 2),
+        "evaluation_s": round(held_out.eval_time, 2),
+    }
 
     model.save(out / "model.zip")
-    vecnorm = venv if isinstance(venv, VecNormalize) else None
     if vecnorm is not None:
         vecnorm.save(str(out / "vecnormalize.pkl"))
 
@@ -392,7 +436,9 @@ def train(
         "seed": seed,
         "timesteps": int(model.num_timesteps),
         "wall_time_s": round(wall, 2),
-        "env_steps_per_s": round(model.num_timesteps / wall, 1),
+        "train_time_s": round(train_time, 2),
+        "time_split": time_split,
+        "env_steps_per_s": round(model.num_timesteps / train_time, 1),
         "success_rate": trained["success_rate"],
         "mean_return": trained["mean_return"],
         "std_return": trained["std_return"],
@@ -405,9 +451,14 @@ def train(
         "init_from": s["init_from"],
         "curve": curve,
     }
+    if stage is not None:
+        summary["curriculum"] = {
+            k: stage[k] for k in ("env_id", "timesteps", "train_time_s", "wall_time_s", "success_rate", "curve")
+        }
+        summary["total_train_time_s"] = round(stage["train_time_s"] + train_time, 2)
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     with open(out / "evaluations.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=["timesteps", "success_rate", "mean_return", "wall_time_s"])
+        w = csv.DictWriter(f, fieldnames=["timesteps", "success_rate", "mean_return", "train_time_s", "wall_time_s"])
         w.writeheader()
         w.writerows(curve)
     plot_curve(curve, summary, out / "learning_curve.png")
@@ -415,7 +466,8 @@ def train(
         C.record_gif(env_id, env_kwargs, C.model_policy(model, vecnorm), out / "policy.gif", seed=final_seed)
 
     print(
-        f"done in {wall:.0f} s ({summary['env_steps_per_s']:,.0f} env-steps/s): success {trained['success_rate']:.0%} "
+        f"done in {train_time:.1f} s of training ({summary['env_steps_per_s']:,.0f} env-steps/s; "
+        f"{wall - train_time:.1f} s more for the evaluations): success {trained['success_rate']:.0%} "
         f"(random policy {rand['success_rate']:.0%}) over {trained['episodes']} held-out episodes, "
         f"mean return {trained['mean_return']:.2f} (random {rand['mean_return']:.2f}); results in {out}"
     )

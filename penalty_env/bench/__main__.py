@@ -1,4 +1,4 @@
-"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup} [options]``."""
+"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup,train} [options]``."""
 
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ COMMANDS = {
     "granular": "penalty_env.bench.granular",
     "scale": "penalty_env.bench.scale",
     "startup": "penalty_env.bench.startup",
+    "train": "penalty_env.bench.train",
 }
 
 

@@ -1,13 +1,17 @@
 """Regenerate every figure in docs/ and the README's main-job output from the current code.
 
-    python -m penalty_env.bench figures [--skip accuracy,stability,energy,train]
+    python -m penalty_env.bench figures [--skip accuracy,stability,energy,train,train-times]
 
 Runs, in a source checkout: ``bench accuracy --fit`` (the full sweep: docs/accuracy*.png and
 accuracy.csv.gz; the refitted error models go to a temporary file and are compared with the
 package's, not applied), ``bench stability`` (stability_map.png, tunnelling.png), ``bench energy``
 (energy_per_collision.png) and the main job, ``python train/train_ppo.py`` (learning_curve.png and
 policy.gif are copied from its run folder, and its first and last lines replace the README's block
-between ``BEGIN MAIN JOB OUTPUT`` and ``END MAIN JOB OUTPUT``). About 25 minutes on 2 cores.
+between ``BEGIN MAIN JOB OUTPUT`` and ``END MAIN JOB OUTPUT``) and, as ``train-times``,
+``bench train --readme`` (every id and
+seed with the tuned settings and those before them: docs/train_curves.png, train_times.md and .csv,
+and the README's lines between ``BEGIN TRAIN TIMES`` and ``END TRAIN TIMES``). About 25 minutes
+on 2 cores without ``train``; ``bench train`` alone takes about an hour and a half.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import subprocess
 import sys
 import time
 
-PARTS = ("accuracy", "stability", "energy", "train")
+PARTS = ("accuracy", "stability", "energy", "train", "train-times")
 
 
 def _tree() -> str:
@@ -94,6 +98,10 @@ def main(argv=None) -> None:
         with open(readme, "w") as f:
             f.write(text)
         print("updated README.md's main-job output:", *lines, sep="\n  ")
+    if "train-times" not in skip:
+        # seconds to a trained policy, every id and seed, the settings before tuning alongside
+        bench_out = os.path.join(tree, "runs", "bench-train")
+        _run([py, "-m", "penalty_env.bench", "train", "--out", bench_out, "--figures", docs, "--readme"], tree)
 
 
 if __name__ == "__main__":

@@ -132,3 +132,37 @@ def test_ppo_learns_on_the_adapter():
         model.learn(2048)
     assert model.num_timesteps >= 2048
     assert len(model.ep_info_buffer) > 0  # VecMonitor's episode statistics reached the logger
+
+
+def test_stagger_cuts_only_the_first_episodes_and_leaves_the_worlds_alone():
+    """``stagger(seed)``: after the next reset, world i's first episode is truncated after a
+    drawn number of steps in 1..max_episode_steps (the same draws for the same seed); the
+    worlds' states are those of an unstaggered env until then, and later episodes are whole."""
+    n, T = 6, 10
+    plain = PenaltyBallsVecEnv(n, max_episode_steps=T)
+    cut = PenaltyBallsVecEnv(n, max_episode_steps=T)
+    plain.seed(5)
+    cut.seed(5)
+    cut.stagger(11)
+    drawn = np.random.default_rng(11).integers(1, T + 1, size=n)
+    assert len(set(drawn.tolist())) > 1  # out of phase
+    np.testing.assert_array_equal(plain.reset(), cut.reset())
+    zero = np.zeros((n, plain.action_space.shape[0]), np.float32)
+    first_end = np.zeros(n, dtype=int)
+    for t in range(1, T + 1):
+        obs_p, _, done_p, _ = plain.step(zero)
+        obs_c, _, done_c, info_c = cut.step(zero)
+        assert done_p.any() == (t == T)  # no push, no success: the plain worlds run to T
+        live = first_end == 0
+        np.testing.assert_array_equal(obs_p[live & ~done_c], obs_c[live & ~done_c])  # the same worlds
+        for i in np.flatnonzero(done_c & live):
+            first_end[i] = t
+            assert info_c[i]["TimeLimit.truncated"]
+            np.testing.assert_array_equal(info_c[i]["terminal_observation"], obs_p[i])
+    np.testing.assert_array_equal(first_end, drawn)
+    # the next reset is whole again: every episode lasts T steps
+    cut.seed(5)
+    cut.reset()
+    for t in range(1, T + 1):
+        _, _, done_c, _ = cut.step(zero)
+        assert done_c.all() == done_c.any() == (t == T)

@@ -71,8 +71,9 @@ def _alive(pid: int) -> bool:
 
 
 def _without_timings(summary: dict) -> dict:
-    s = {k: v for k, v in summary.items() if k not in ("wall_time_s", "env_steps_per_s")}
-    s["curve"] = [{k: v for k, v in c.items() if k != "wall_time_s"} for c in summary["curve"]]
+    timings = ("wall_time_s", "train_time_s", "env_steps_per_s", "time_split")
+    s = {k: v for k, v in summary.items() if k not in timings}
+    s["curve"] = [{k: v for k, v in c.items() if k not in timings} for c in summary["curve"]]
     return s
 
 

@@ -14,9 +14,6 @@ TRAIN = ROOT / "train" / "train_ppo.py"
 EVALUATE = ROOT / "train" / "evaluate.py"
 
 pytest.importorskip("stable_baselines3")
-# the sand run after its PenaltyBalls-v1 run (docs/granular.md, "PPO through sand")
-V1_SEEDS = (0, 1, 2)  # the sand curriculum: the best of these v1 runs starts the sand run
-SAND_ARGS = ["--gamma", 0.99, "--learning-rate", 3e-4, "--timesteps", 2_000_000, "--eval-freq", 100_000]
 
 
 def _run(args, timeout):
@@ -25,31 +22,34 @@ def _run(args, timeout):
     return res.stdout
 
 
-def test_training_smoke_run_saves_reloads_and_evaluates(tmp_path):
-    out = tmp_path / "run"
-    _run(
-        [
-            TRAIN,
-            "--timesteps",
-            4096,
-            "--n-envs",
-            8,
-            "--n-steps",
-            256,
-            "--batch-size",
-            512,
-            "--eval-freq",
-            2048,
-            "--eval-episodes",
-            8,
-            "--final-episodes",
-            16,
-            "--no-progress",
-            "--out",
-            out,
-        ],
-        timeout=600,
-    )
+SMOKE = [
+    "--timesteps",
+    4096,
+    "--n-envs",
+    8,
+    "--n-steps",
+    256,
+    "--batch-size",
+    512,
+    "--eval-freq",
+    2048,
+    "--eval-episodes",
+    8,
+    "--final-episodes",
+    16,
+]
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory):
+    """A short run of the script, not on a terminal: no bar, one line per evaluation."""
+    out = tmp_path_factory.mktemp("smoke") / "run"
+    text = _run([TRAIN, *SMOKE, "--out", out], timeout=600)
+    return out, text
+
+
+def test_training_smoke_run_saves_reloads_and_evaluates(smoke_run, tmp_path):
+    out, text = smoke_run
     for name in (
         "model.zip",
         "vecnormalize.pkl",
@@ -63,6 +63,7 @@ def test_training_smoke_run_saves_reloads_and_evaluates(tmp_path):
     for key in (
         "timesteps",
         "wall_time_s",
+        "train_time_s",
         "env_steps_per_s",
         "success_rate",
         "mean_return",
@@ -73,9 +74,62 @@ def test_training_smoke_run_saves_reloads_and_evaluates(tmp_path):
     assert summary["timesteps"] >= 4096
     assert summary["eval_episodes"] == 16
     assert 0.0 <= summary["success_rate"] <= 1.0 and 0.0 <= summary["random_success_rate"] <= 1.0
-    assert len(summary["curve"]) == 2  # evaluations at 2048 and 4096 steps
-    text = _run([EVALUATE, out, "--episodes", 10, "--n-envs", 5], timeout=300)
+    assert [p["timesteps"] for p in summary["curve"]] == [2048, 4096]  # evaluations at 2048 and 4096 steps
+    # the evaluations are timed apart from the training, and the parts add up to no more than it
+    split = summary["time_split"]
+    assert summary["train_time_s"] <= summary["wall_time_s"]
+    assert split["env_step_s"] + split["policy_and_rollout_s"] + split["update_s"] <= summary["train_time_s"] + 0.05
+    assert text.count("[eval]") == 2 and "%|" not in text  # no bar off a terminal
+    video = tmp_path / "eval.gif"
+    text = _run([EVALUATE, out, "--episodes", 10, "--n-envs", 5, "--video", video], timeout=300)
     assert "success" in text and "random policy" in text
+    assert video.stat().st_size > 0
+
+
+def test_progress_bar_on_a_terminal_and_quiet(tmp_path):
+    """On a terminal the run draws a bar (steps/s, the held-out success so far, the time left);
+    ``--quiet`` draws nothing and prints no evaluation lines."""
+    import os
+    import pty
+
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, str(TRAIN), *map(str, SMOKE), "--no-gif", "--out", str(tmp_path / "a")],
+        stdout=slave,
+        stderr=slave,
+        cwd=ROOT,
+    )
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            data = os.read(master, 65536)
+        except OSError:  # the terminal closed with the process
+            break
+        if not data:
+            break
+        chunks.append(data)
+    assert proc.wait(timeout=600) == 0
+    os.close(master)
+    text = b"".join(chunks).decode(errors="replace")
+    assert "%|" in text and " steps/s" in text and "success" in text, text[-2000:]  # tqdm's bar
+    assert "[eval]" not in text
+    quiet = _run([TRAIN, *SMOKE, "--no-gif", "--quiet", "--out", tmp_path / "b"], timeout=600)
+    assert "[eval]" not in quiet and "%|" not in quiet and "done in" in quiet
+
+
+def test_readme_example_loads_a_run(smoke_run):
+    """The README's "load a run" example, on a run folder of the script."""
+    import re
+
+    out, _ = smoke_run
+    readme = (ROOT / "README.md").read_text()
+    code = re.search(r"<!-- BEGIN LOAD A RUN -->\s*```python\n(.*?)```", readme, re.S).group(1)
+    assert 'Path("runs/ppo-PenaltyBalls-v0-seed0")' in code
+    code = code.replace('Path("runs/ppo-PenaltyBalls-v0-seed0")', f"Path({str(out)!r})")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert "episodes reached the goal" in res.stdout
 
 
 def test_help_documents_the_options():
@@ -93,18 +147,28 @@ def test_help_documents_the_options():
         assert opt in text
 
 
+@pytest.fixture(scope="module")
+def default_runs(tmp_path_factory):
+    """The README's main job, ``python train/train_ppo.py``, with seeds 0 to 4."""
+    summaries = []
+    for seed in range(5):
+        out = tmp_path_factory.mktemp("default") / f"seed{seed}"
+        _run([TRAIN, "--seed", seed, "--quiet", "--no-gif", "--out", out], timeout=15 * 60)
+        summaries.append(json.loads((out / "summary.json").read_text()))
+    return summaries
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_default_run_reaches_80_percent_success_on_held_out_seeds(tmp_path, seed):
-    """The README's main job: the default run succeeds on >= 80% of 100 held-out episodes
-    within 15 minutes, while a random policy mostly fails."""
-    out = tmp_path / f"seed{seed}"
-    _run([TRAIN, "--seed", seed, "--no-progress", "--no-gif", "--out", out], timeout=15 * 60 + 120)
-    summary = json.loads((out / "summary.json").read_text())
-    assert summary["wall_time_s"] <= 15 * 60
-    assert summary["eval_episodes"] == 100
-    assert summary["success_rate"] >= 0.8, summary
-    assert summary["random_success_rate"] <= 0.2, summary
+def test_default_run_reaches_90_percent_success_on_held_out_seeds(default_runs):
+    """The main job succeeds on >= 90% of 100 held-out episodes (the median of five seeds; the
+    worst seed >= 85%), while a random policy fails. Its training time is a benchmark's figure
+    (``python -m penalty_env.bench train``), not asserted here."""
+    import numpy as np
+
+    rates = [s["success_rate"] for s in default_runs]
+    assert all(s["eval_episodes"] == 100 for s in default_runs)
+    assert np.median(rates) >= 0.9 and min(rates) >= 0.85, rates
+    assert max(s["random_success_rate"] for s in default_runs) <= 0.2
 
 
 def test_init_from_starts_where_the_earlier_run_left_off_and_refuses_what_does_not_fit(tmp_path):
@@ -167,39 +231,25 @@ def test_init_from_starts_where_the_earlier_run_left_off_and_refuses_what_does_n
 
 
 @pytest.mark.slow
-def test_the_sand_curriculum_reaches_80_percent_within_30_minutes(tmp_path):
-    """docs/granular.md's sand run: PPO on PenaltyBalls-v1 (the default settings) with seeds 0, 1 and 2,
-    then PPO on PenaltyBallsSand-v1 from the one that succeeded most on its own held-out v1
-    episodes: at least 80% of 100 held-out sand episodes, all four runs together within 30
-    minutes of training on 2 cores, where a random policy fails."""
-    firsts = []
-    for seed in V1_SEEDS:
-        out = tmp_path / f"v1-seed{seed}"
-        _run(
-            [TRAIN, "--env-id", "PenaltyBalls-v1", "--seed", seed, "--no-progress", "--no-gif", "--out", out],
-            timeout=15 * 60,
-        )
-        firsts.append((json.loads((out / "summary.json").read_text()), out))
-    best = max(firsts, key=lambda f: f[0]["success_rate"])[1]
-    sand = tmp_path / "sand"
-    _run(
-        [
-            TRAIN,
-            "--env-id",
-            "PenaltyBallsSand-v1",
-            "--init-from",
-            best,
-            *SAND_ARGS,
-            "--no-progress",
-            "--no-gif",
-            "--out",
-            sand,
-        ],
-        timeout=40 * 60,
-    )
-    second = json.loads((sand / "summary.json").read_text())
-    assert second["init_from"] == str(best)
-    assert sum(f[0]["wall_time_s"] for f in firsts) + second["wall_time_s"] <= 30 * 60
-    assert second["eval_episodes"] == 100
-    assert second["success_rate"] >= 0.8, second
-    assert second["random_success_rate"] <= 0.2, second
+def test_rolling_balls_reach_90_percent(tmp_path):
+    """``python train/train_ppo.py --env-id PenaltyBalls-v1``: >= 90% of 100 held-out episodes."""
+    out = tmp_path / "v1"
+    _run([TRAIN, "--env-id", "PenaltyBalls-v1", "--quiet", "--no-gif", "--out", out], timeout=20 * 60)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["success_rate"] >= 0.9, summary
+    assert summary["random_success_rate"] <= 0.2, summary
+
+
+@pytest.mark.slow
+def test_sand_from_scratch_in_one_command_reaches_80_percent(tmp_path):
+    """``python train/train_ppo.py --env-id PenaltyBallsSand-v1``: the script's curriculum (a
+    PenaltyBalls-v1 run, then the sand run from its policy) reaches >= 80% of 100 held-out sand
+    episodes, where a random policy fails."""
+    out = tmp_path / "sand"
+    _run([TRAIN, "--env-id", "PenaltyBallsSand-v1", "--quiet", "--no-gif", "--out", out], timeout=40 * 60)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["curriculum"]["env_id"] == "PenaltyBalls-v1"
+    assert summary["init_from"] == str((out / "stage1-PenaltyBalls-v1").resolve())
+    assert summary["eval_episodes"] == 100
+    assert summary["success_rate"] >= 0.8, summary
+    assert summary["random_success_rate"] <= 0.2, summary
