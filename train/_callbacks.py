@@ -74,7 +74,8 @@ class HeldOutEval(BaseCallback):
         self.venv, self.seed, self.vecnorm, self.every, self.clock = venv, seed, vecnorm, every, clock
         self.curve, self.on_eval, self.stop_at, self.log = curve, on_eval, stop_at, log
         self.next_at = every
-        self.eval_time = 0.0
+        self.eval_time = 0.0  # every evaluation's time
+        self.eval_in_rollout = 0.0  # of which during the rollouts (not the one after the last)
         self.reached = False
 
     def evaluate(self) -> dict[str, Any]:
@@ -106,7 +107,9 @@ class HeldOutEval(BaseCallback):
         if self.num_timesteps >= self.next_at:
             while self.next_at <= self.num_timesteps:
                 self.next_at += self.every
+            before = self.eval_time
             self.evaluate()
+            self.eval_in_rollout += self.eval_time - before
             return not self.reached
         return True
 
@@ -117,7 +120,8 @@ class HeldOutEval(BaseCallback):
 
 
 def show_progress(quiet: bool) -> bool:
-    """The progress bar is drawn unless ``quiet`` or standard output is not a terminal."""
+    """The progress bar (on standard output) is drawn unless ``quiet`` or standard output is not
+    a terminal."""
     return not quiet and sys.stdout.isatty()
 
 
@@ -139,7 +143,13 @@ class Progress(BaseCallback):
         # a terminal that reports no size (0 by 0: tqdm would hide the bar) counts as 100 by 24
         size = shutil.get_terminal_size((100, 24))
         self.bar = tqdm(
-            total=self.total, desc=self.desc, unit=" steps", unit_scale=True, ncols=size.columns, nrows=size.lines
+            total=self.total,
+            desc=self.desc,
+            unit=" steps",
+            unit_scale=True,
+            ncols=size.columns,
+            nrows=size.lines,
+            file=sys.stdout,
         )
 
     def _on_step(self) -> bool:

@@ -8,7 +8,8 @@
 RLlib's env runners build the env through its vector entry point:
 ``gym.make_vec("PenaltyBalls-v0", num_envs=N, vectorization_mode="vector_entry_point")``
 (``gym_env_vectorize_mode="vector_entry_point"``), so each runner steps its N worlds in one Numba
-call, as SB3's adapter does. The settings mirror train_ppo.py's defaults: 16 worlds x 256 steps
+call, as SB3's adapter does. The settings mirror train_ppo.py's settings before tuning
+(``train/_tuned.py``'s LEGACY; its tuned ones are per id): 16 worlds x 256 steps
 per update (4,096), minibatches of 1,024, 10 epochs, Adam 1e-3 decayed linearly to 0, gamma 0.98,
 GAE lambda 0.95, clip 0.2, separate 128-128 tanh policy and value networks with a state-independent
 log std, value loss weight 0.5, no KL term. Differences: observations are normalised by RLlib's

@@ -6,7 +6,7 @@
     python train/sweep.py --resume runs/sweep-lr          # after Ctrl+C, a crash or a lost node
     python train/sweep.py ... --address ray://head:10001  # a cluster (or set RAY_ADDRESS)
 
-Every trial calls ``train_ppo.train`` (the function behind ``train_ppo.py``) with one
+Every trial calls ``train_ppo.run`` (the function behind ``train_ppo.py``) with one
 configuration and one seed, so its run folder and summary are those of
 ``python train/train_ppo.py --seed S --threads K --numba-threads K ...`` with the same settings. A
 trial holds ``--cpus-per-trial`` K CPUs (``tune.with_resources``) and runs torch and Numba on K
@@ -309,7 +309,7 @@ def _fault_injection(name: str) -> Any:
 
 
 def trainable(config: dict[str, Any]) -> None:
-    """Ray Tune's trainable: ``train_ppo.train`` for one configuration and seed, on the trial's
+    """Ray Tune's trainable: ``train_ppo.run`` for one configuration and seed, on the trial's
     CPUs. Reports each evaluation, then the summary with the run folder as its checkpoint (Tune
     stores it under the experiment, wherever the trial ran)."""
     from ray import tune
@@ -325,7 +325,7 @@ def trainable(config: dict[str, Any]) -> None:
 
     with tempfile.TemporaryDirectory(prefix="penalty_env-trial-") as tmp:
         run = Path(tmp) / name
-        summary = T.train(settings, run, on_eval=on_eval)
+        summary = T.run(settings, run, on_eval=on_eval)
         metrics = {k: summary[k] for k in FINAL_KEYS}
         tune.report({**metrics, "final": True}, checkpoint=tune.Checkpoint.from_directory(str(run)))
 

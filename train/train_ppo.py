@@ -113,6 +113,18 @@ _FLOATS = {
 }
 
 
+def _registered(env_id: str) -> bool:
+    import gymnasium as gym
+
+    import penalty_env  # noqa: F401  (registers the ids)
+
+    try:
+        gym.spec(env_id)
+    except gym.error.Error:
+        return False
+    return True
+
+
 def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
     """``settings`` with the defaults of :data:`SETTINGS` filled in, or a ValueError that names
     the setting, its value and what is allowed (an unknown name lists the known ones)."""
@@ -156,8 +168,13 @@ def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
                 f"setting 'init_from' must be None or a run folder of train_ppo.py holding model.zip, got {str(src)!r}"
             )
         s["init_from"] = str(Path(src).resolve())
-    if not isinstance(s["env_id"], str):
-        raise ValueError(f"setting 'env_id' must be a registered env id, got {s['env_id']!r}")
+    if not isinstance(s["env_id"], str) or not _registered(s["env_id"]):
+        raise ValueError(f"setting 'env_id' must be a registered env id (e.g. PenaltyBalls-v0), got {s['env_id']!r}")
+    if s["batch_size"] > s["n_envs"] * s["n_steps"]:
+        raise ValueError(
+            f"setting 'batch_size' ({s['batch_size']}) must be at most n_envs * n_steps "
+            f"({s['n_envs']} * {s['n_steps']} = {s['n_envs'] * s['n_steps']}, one rollout)"
+        )
     stop = s["stop_at"]
     if stop is not None and (isinstance(stop, bool) or not isinstance(stop, (int, float)) or not 0.0 < stop <= 1.0):
         raise ValueError(f"setting 'stop_at' must be None or a success rate in (0, 1], got {stop!r}")
@@ -180,7 +197,7 @@ _TUNABLE = (
     ("gae_lambda", float, "GAE lambda"),
     ("ent_coef", float, "entropy bonus"),
     ("clip_range", float, "PPO clip"),
-    ("log_std_init", float, "initial log standard deviation of the actions"),
+    ("log_std_init", float, "initial log standard deviation of the actions (--init-from copies the earlier run's)"),
     ("net_arch", str, "hidden layer sizes, comma separated"),
     ("eval_freq", int, "env steps between held-out evaluations"),
     ("threads", int, "torch threads"),
@@ -284,8 +301,9 @@ def settings_from_args(args: argparse.Namespace) -> dict[str, Any]:
         stop_at=args.stop_at,
         gif=not args.no_gif,
         curriculum=not args.no_curriculum,
-        stagger=not args.no_stagger,
     )
+    if args.no_stagger:
+        s["stagger"] = False
     return s
 
 
@@ -303,24 +321,43 @@ def main(argv=None) -> dict:
     return run(settings, args.out or default_out(settings))
 
 
-def run(settings: Mapping[str, Any], out: Path) -> dict[str, Any]:
+def run(
+    settings: Mapping[str, Any], out: Path, on_eval: Callable[[dict[str, Any]], None] | None = None
+) -> dict[str, Any]:
     """:func:`train`, after the id's curriculum stage when it has one (``_tuned.CURRICULUM``; the
     ``curriculum`` setting on, no ``init_from`` given): that id's tuned run, into
     ``out/stage1-<id>``, until its held-out success reaches ``_tuned.CURRICULUM_STOP_AT`` (or its
     budget ends); then this id's run starts from its policy. The summary's ``curriculum`` entry
-    holds the first stage's figures, ``total_train_time_s`` both stages' training time."""
+    holds the first stage's figures, ``total_train_time_s`` both stages' training time. The first
+    stage takes its id's tuned settings, except these of this run: :data:`STAGE_KEEPS`.
+    ``on_eval``: as :func:`train`'s, for this id's run."""
     s = check_settings(settings)
     first = _tuned.CURRICULUM.get(s["env_id"].split(":")[-1])
     if first is None or not s["curriculum"] or s["init_from"] is not None:
-        return train(s, out)
+        return train(s, out, on_eval=on_eval)
     stage_out = Path(out) / f"stage1-{first}"
-    keep = ("seed", "numba_threads", "progress", "quiet", "normalize")
+    keep = STAGE_KEEPS
     stage = train(
         {"env_id": first, **{k: s[k] for k in keep}, "stop_at": _tuned.CURRICULUM_STOP_AT, "gif": False},
         stage_out,
     )
-    summary = train({**s, "init_from": str(stage_out)}, out, stage=stage)
-    return summary
+    return train({**s, "init_from": str(stage_out)}, out, on_eval=on_eval, stage=stage)
+
+
+# the settings a curriculum's first stage takes from the run (init_from needs the same network)
+STAGE_KEEPS = (
+    "seed",
+    "numba_threads",
+    "threads",
+    "progress",
+    "quiet",
+    "normalize",
+    "net_arch",
+    "stagger",
+    "eval_episodes",
+    "final_episodes",
+    "tensorboard",
+)
 
 
 def train(
@@ -410,7 +447,7 @@ def train(
     env_time = timed_env.time
     time_split = {
         "env_step_s": round(env_time, 2),
-        "policy_and_rollout_s": round(model.rollout_time - env_time - held_out.eval_time, 2),
+        "policy_and_rollout_s": round(model.rollout_time - env_time - held_out.eval_in_rollout, 2),
         "update_s": round(model.update_time, 2),
         "evaluation_s": round(held_out.eval_time, 2),
     }
@@ -448,12 +485,14 @@ def train(
         "random_mean_return": rand["mean_return"],
         "hyperparameters": {k: s[k] for k in HYPERPARAMETERS},
         "normalize": s["normalize"],
+        "stagger": s["stagger"],
         "init_from": s["init_from"],
         "curve": curve,
     }
     if stage is not None:
         summary["curriculum"] = {
-            k: stage[k] for k in ("env_id", "timesteps", "train_time_s", "wall_time_s", "success_rate", "curve")
+            k: stage[k]
+            for k in ("env_id", "timesteps", "train_time_s", "wall_time_s", "time_split", "success_rate", "curve")
         }
         summary["total_train_time_s"] = round(stage["train_time_s"] + train_time, 2)
     (out / "summary.json").write_text(json.dumps(summary, indent=2))

@@ -3,8 +3,9 @@
 For each id and seed, ``train/train_ppo.py`` runs twice, alternately: with the id's tuned settings
 (``train/_tuned.py``, the script's defaults) and with the settings every id had before they were
 tuned (``_tuned.LEGACY``, the same-run reference). Each run evaluates its policy on the same 100
-held-out episodes every ``--eval-freq`` environment steps (the evaluations are timed apart from
-the training) and stops at the first evaluation with at least 90% success, or at its budget.
+held-out episodes every ``EVAL_FREQ[id]`` environment steps, with either setting (the
+evaluations are timed apart from the training; a sand id's first stage evaluates at its own id's
+interval) and stops at the first evaluation with at least 90% success, or at its budget.
 A sand id's tuned run includes its curriculum's first stage, whose training time counts.
 
 Prints, and writes to ``--out`` (``train_times.csv``, ``train_times.md``,
@@ -34,8 +35,6 @@ import subprocess
 import sys
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 IDS = ("PenaltyBalls-v0", "PenaltyBalls-v1", "PenaltyBallsSand-v1")
 THRESHOLDS = (0.5, 0.8, 0.9)
@@ -164,6 +163,11 @@ def seeds_per_id(specs: list[str], ids: list[str]) -> dict[str, int]:
     return n
 
 
+def upper_median(values: list[float]) -> float:
+    """The median, the upper of the two middle values of an even count (as the tables' times)."""
+    return sorted(values)[len(values) // 2]
+
+
 def _fmt(t: float | None, n: int | None) -> str:
     return "-" if t is None or n is None else f"{t:.1f} s / {n / 1e3:.0f}k"
 
@@ -180,8 +184,10 @@ def report(results, ids, settings, n_seeds, out: Path, figures: Path | None) -> 
         row["train_time_s"] = round(total_train_time(summ), 2)
         row["final_success"] = summ["success_rate"]
         split = dict(summ["time_split"])
-        if "curriculum" in summ:
+        if "curriculum" in summ:  # the first stage's time counts, its split too
             row["curriculum_s"] = summ["curriculum"]["train_time_s"]
+            for key, value in summ["curriculum"]["time_split"].items():
+                split[key] = round(split[key] + value, 2)
         row.update(split)
         rows.append(row)
     keys = sorted({k for r in rows for k in r}, key=lambda k: list(rows[0]).index(k) if k in rows[0] else 99)
@@ -217,7 +223,7 @@ def report(results, ids, settings, n_seeds, out: Path, figures: Path | None) -> 
         if leg is not None and tun is not None and tun[1]:
             ratio = f"{'' if leg[1] else '> '}{leg[0] / tun[0]:.1f}x"
         lines.append(f"| {env_id} | {cell(leg)} | {cell(tun)} | {ratio} |")
-    lines += ["", "Where the training time went (medians over seeds, s):", ""]
+    lines += ["", "Where the training time went (medians over seeds, s; a curriculum's first stage included):", ""]
     parts = ("env_step_s", "policy_and_rollout_s", "update_s", "evaluation_s")
     lines += [
         "| id | setting | env stepping | policy and rollout | update | evaluation (not training) |",
@@ -227,7 +233,7 @@ def report(results, ids, settings, n_seeds, out: Path, figures: Path | None) -> 
         for setting in settings:
             rs = [r for r in rows if r["env_id"] == env_id and r["setting"] == setting]
             if rs:
-                cells = [f"{np.median([r[k] for r in rs]):.1f}" for k in parts]
+                cells = [f"{upper_median([r[k] for r in rs]):.1f}" for k in parts]
                 lines.append(f"| {env_id} | {setting} | " + " | ".join(cells) + " |")
     table = "\n".join(lines) + "\n"
     (out / "train_times.md").write_text(table)

@@ -77,7 +77,7 @@ def test_training_smoke_run_saves_reloads_and_evaluates(smoke_run, tmp_path):
     assert [p["timesteps"] for p in summary["curve"]] == [2048, 4096]  # evaluations at 2048 and 4096 steps
     # the evaluations are timed apart from the training, and the parts add up to no more than it
     split = summary["time_split"]
-    assert summary["train_time_s"] <= summary["wall_time_s"]
+    assert summary["train_time_s"] <= summary["wall_time_s"] and min(split.values()) >= 0
     assert split["env_step_s"] + split["policy_and_rollout_s"] + split["update_s"] <= summary["train_time_s"] + 0.05
     assert text.count("[eval]") == 2 and "%|" not in text  # no bar off a terminal
     video = tmp_path / "eval.gif"
@@ -143,8 +143,112 @@ def test_help_documents_the_options():
         "--tensorboard",
         "--env-kwarg",
         "--init-from",
+        "--stop-at",
+        "--quiet",
+        "--no-stagger",
+        "--no-curriculum",
+        "--log-std-init",
     ):
         assert opt in text
+
+
+def _train_module():
+    sys.path.insert(0, str(ROOT / "train"))
+    import train_ppo as T
+
+    return T
+
+
+def test_settings_precedence_and_refusals():
+    """The command line wins over the id's tuned value, which wins over the defaults; a rollout
+    smaller than a minibatch and an unknown id are refused, naming the setting and the value."""
+    T = _train_module()
+    import _tuned
+
+    args = T.build_parser().parse_args(["--env-id", "PenaltyBalls-v1", "--n-envs", "8", "--n-steps", "256"])
+    s = T.check_settings(T.settings_from_args(args))
+    assert s["n_envs"] == 8 and s["n_steps"] == 256  # given
+    assert s["gamma"] == _tuned.TUNED["PenaltyBalls-v1"]["gamma"] != T.DEFAULTS["gamma"]  # the id's
+    assert s["stagger"] is True
+    args = T.build_parser().parse_args(["--no-stagger"])
+    assert T.check_settings(T.settings_from_args(args))["stagger"] is False
+    with pytest.raises(ValueError, match=r"'batch_size' \(1024\).*16 \* 16 = 256"):
+        T.check_settings({"n_envs": 16, "n_steps": 16})
+    with pytest.raises(ValueError, match=r"'env_id'.*'PenaltyBalls-v9'"):
+        T.check_settings({"env_id": "PenaltyBalls-v9"})
+
+
+def test_curriculum_first_stage_takes_the_runs_network_and_threads(tmp_path, monkeypatch):
+    """``run`` on a sand id: first its curriculum's id, with that id's tuned settings but this
+    run's network, threads, seed and staggering, stopped at CURRICULUM_STOP_AT; then the sand id
+    from the first stage's folder."""
+    T = _train_module()
+    import _tuned
+
+    calls = []
+
+    def fake_train(settings, out, on_eval=None, stage=None):
+        calls.append((dict(settings), Path(out), stage))
+        Path(out).mkdir(parents=True, exist_ok=True)
+        (Path(out) / "model.zip").write_bytes(b"x")
+        return {"train_time_s": 1.0, "env_id": settings["env_id"]}
+
+    monkeypatch.setattr(T, "train", fake_train)
+    T.run({"env_id": "PenaltyBallsSand-v1", "net_arch": "64,64", "threads": 1, "seed": 3, "stagger": False}, tmp_path)
+    (first, first_out, _), (second, second_out, stage) = calls
+    assert (
+        first["env_id"] == _tuned.CURRICULUM["PenaltyBallsSand-v1"] and first_out == tmp_path / "stage1-PenaltyBalls-v1"
+    )
+    assert (first["net_arch"], first["threads"], first["seed"], first["stagger"]) == ("64,64", 1, 3, False)
+    assert first["stop_at"] == _tuned.CURRICULUM_STOP_AT and "n_envs" not in first  # the rest: v1's tuned
+    assert (
+        second["init_from"] == str(first_out.resolve())
+        and second_out == tmp_path
+        and stage["env_id"] == first["env_id"]
+    )
+    calls.clear()
+    T.run({"env_id": "PenaltyBallsSand-v1", "curriculum": False}, tmp_path / "b")
+    assert len(calls) == 1 and calls[0][0]["init_from"] is None  # from scratch
+
+
+def test_held_out_evaluation_schedule_clock_and_stop(monkeypatch):
+    """The evaluation runs at the first step at or past each multiple of ``every``, on reseeded
+    episodes, outside the training clock; the run stops at the first point at ``stop_at``; the
+    evaluation after the last step counts as evaluation time but not as rollout time."""
+    sys.path.insert(0, str(ROOT / "train"))
+    import _callbacks as CB
+    import _common as C
+
+    rates = iter([0.2, 0.95, 0.5, 0.6])
+    monkeypatch.setattr(C, "run_episodes", lambda venv, act, n: {"success_rate": next(rates), "mean_return": 1.0})
+    monkeypatch.setattr(C, "model_policy", lambda model, vecnorm: None)
+
+    class Venv:
+        num_envs = 4
+
+        def __init__(self):
+            self.seeds = []
+
+        def seed(self, s):
+            self.seeds.append(s)
+
+    venv, curve = Venv(), []
+    cb = CB.HeldOutEval(venv, 7, None, every=100, clock=CB.TrainClock(), curve=curve, stop_at=0.9)
+    cb.model = None  # SB3 sets it at the start of training; the policy is stubbed above
+    for n, more in ((50, True), (128, True), (192, True), (256, False)):
+        cb.num_timesteps = n
+        assert cb._on_step() is more
+    assert [p["timesteps"] for p in curve] == [128, 256] and venv.seeds == [7, 7]
+    cb._on_training_end()  # stopped at its point: no further evaluation
+    assert len(curve) == 2 and cb.eval_in_rollout == cb.eval_time
+    cb2 = CB.HeldOutEval(venv, 7, None, every=100, clock=CB.TrainClock(), curve=(curve2 := []), stop_at=None)
+    cb2.model = None
+    cb2.num_timesteps = 100
+    assert cb2._on_step()
+    cb2.num_timesteps = 150
+    cb2._on_training_end()  # the end, past the last point: one more, outside the rollouts
+    assert [p["timesteps"] for p in curve2] == [100, 150] and cb2.eval_in_rollout < cb2.eval_time
+    assert all(0 <= p["train_time_s"] <= p["wall_time_s"] for p in curve + curve2)
 
 
 @pytest.fixture(scope="module")

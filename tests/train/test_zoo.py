@@ -39,7 +39,7 @@ def test_train_ppo_defaults_are_the_tuned_settings():
         s = T.check_settings({"env_id": env_id})
         for key, value in _tuned.TUNED[env_id].items():
             assert s[key] == value, (env_id, key)
-    assert T.check_settings({"env_id": "PenaltyBalls-v1", "n_envs": 8})["n_envs"] == 8  # an override wins
+    assert T.check_settings({"env_id": "PenaltyBalls-v1", "n_envs": 8, "n_steps": 256})["n_envs"] == 8  # overrides win
 
 
 def test_rl_zoo3_trains_with_the_file(tmp_path):
