@@ -114,9 +114,8 @@ class HeldOutEval(BaseCallback):
         return True
 
     def _on_training_end(self) -> None:
-        if not self.curve or self.curve[-1]["timesteps"] != self.num_timesteps:
-            if not self.reached:
-                self.evaluate()
+        if not self.reached and (not self.curve or self.curve[-1]["timesteps"] != self.num_timesteps):
+            self.evaluate()
 
 
 def show_progress(quiet: bool) -> bool:

@@ -431,7 +431,7 @@ def train(
         verbose=0,
     )
     if s["init_from"] is not None:
-        init_from(model, venv if isinstance(venv, VecNormalize) else None, Path(s["init_from"]))
+        init_from(model, vecnorm, Path(s["init_from"]))
     start = f", from {s['init_from']}" if s["init_from"] else ""
     print(
         f"training PPO on {env_id} {env_kwargs or ''}: {s['timesteps']:,} steps, "

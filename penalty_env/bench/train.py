@@ -190,7 +190,7 @@ def report(results, ids, settings, n_seeds, out: Path, figures: Path | None) -> 
                 split[key] = round(split[key] + value, 2)
         row.update(split)
         rows.append(row)
-    keys = sorted({k for r in rows for k in r}, key=lambda k: list(rows[0]).index(k) if k in rows[0] else 99)
+    keys = list(dict.fromkeys(k for r in rows for k in r))
     with open(out / "train_times.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys)
         w.writeheader()
@@ -205,18 +205,7 @@ def report(results, ids, settings, n_seeds, out: Path, figures: Path | None) -> 
         lines.append(f"| {env_id} | {setting} | {seed} | " + " | ".join(cells) + f" | {summ['success_rate']:.0%} |")
     lines += ["", "| id | median to 90%, legacy | median to 90%, tuned | legacy / tuned |", "|---|---|---|---|"]
     for env_id in ids:
-        med = {}
-        for setting in settings:
-            ts = []
-            for seed in range(n_seeds):
-                summ = results.get((env_id, setting, seed))
-                if summ is None:
-                    continue
-                t, _ = time_to(summ, 0.9)
-                ts.append((t, True) if t is not None else (total_train_time(summ), False))
-            if ts:  # a run that never reached 90% sorts after every one that did
-                vals = sorted(ts, key=lambda v: (not v[1], v[0]))
-                med[setting] = vals[len(vals) // 2]
+        med = {setting: median_time_to_90(_runs(results, env_id, setting, n_seeds)) for setting in settings}
         leg, tun = med.get("legacy"), med.get("tuned")
         cell = lambda m: "-" if m is None else (f"{m[0]:.1f} s" if m[1] else f"> {m[0]:.1f} s (not reached)")  # noqa: E731
         ratio = "-"
@@ -236,31 +225,46 @@ def report(results, ids, settings, n_seeds, out: Path, figures: Path | None) -> 
                 cells = [f"{upper_median([r[k] for r in rs]):.1f}" for k in parts]
                 lines.append(f"| {env_id} | {setting} | " + " | ".join(cells) + " |")
     table = "\n".join(lines) + "\n"
-    (out / "train_times.md").write_text(table)
     (out / "readme_lines.md").write_text(readme_lines(results, ids, n_seeds))
     print(table)
-    plot(results, ids, settings, out / "train_curves.png")
-    if figures is not None:
-        figures.mkdir(parents=True, exist_ok=True)
-        plot(results, ids, settings, figures / "train_curves.png")
-        (figures / "train_times.md").write_text(table)
-        with open(figures / "train_times.csv", "w", newline="") as f:
+    for folder in [out] + ([figures] if figures is not None else []):
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "train_times.md").write_text(table)
+        with open(folder / "train_times.csv", "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=keys)
             w.writeheader()
             w.writerows(rows)
+        plot(results, ids, settings, folder / "train_curves.png")
+
+
+def _runs(results, env_id: str, setting: str, n_seeds: int) -> list[dict[str, Any]]:
+    return [results[env_id, setting, seed] for seed in range(n_seeds) if (env_id, setting, seed) in results]
+
+
+def median_time_to_90(runs: list[dict[str, Any]]) -> tuple[float, bool] | None:
+    """The median over ``runs`` of the training time to 90% (the upper of the two middle values
+    of an even count), and whether that run reached it: a run that never did sorts after every
+    one that did and stands in with its whole training time. None for no runs."""
+    if not runs:
+        return None
+    ts = []
+    for summ in runs:
+        t, _ = time_to(summ, 0.9)
+        ts.append((t, True) if t is not None else (total_train_time(summ), False))
+    ts.sort(key=lambda v: (not v[1], v[0]))
+    return ts[len(ts) // 2]
 
 
 def readme_lines(results, ids, n_seeds) -> str:
     """One line per id for the README: the tuned run's median time to 90% and its command."""
     lines = []
     for env_id in ids:
-        runs = [results[env_id, "tuned", seed] for seed in range(n_seeds) if (env_id, "tuned", seed) in results]
-        if not runs:
+        runs = _runs(results, env_id, "tuned", n_seeds)
+        med = median_time_to_90(runs)
+        if med is None:
             continue
-        ts = sorted(t if t is not None else float("inf") for t, _ in (time_to(r, 0.9) for r in runs))
-        med = ts[len(ts) // 2]
-        reached = sum(t != float("inf") for t in ts)
-        when = f"{med:.0f} s" if med != float("inf") else "not reached"
+        reached = sum(time_to(r, 0.9)[0] is not None for r in runs)
+        when = f"{med[0]:.0f} s" if med[1] else "not reached"
         cmd = "python train/train_ppo.py" + ("" if env_id == "PenaltyBalls-v0" else f" --env-id {env_id}")
         lines.append(
             f"- `{env_id}`: 90% in {when} of training (median of {len(runs)} seeds; {reached} of {len(runs)} "
