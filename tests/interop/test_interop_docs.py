@@ -38,6 +38,7 @@ NEEDS = {
 }
 # what a block prints (one string, or several), where the page says so in a comment
 PRINTS = {
+    "cleanrl": "length 150",
     "sb3-subproc": "(2, 21)",
     "gymnasium-async": "(2, 21)",
     "torchrl": ("torch.Size([8, 200])", "['is_success']"),
