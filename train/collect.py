@@ -52,9 +52,9 @@ def scripted_policy(env) -> Policy:
     return ScriptedPusher.for_env(env)
 
 
-def trained_policy(run: Path) -> tuple[Policy, dict[str, Any]]:
-    """The deterministic policy of a ``train_ppo.py`` run folder, for single observations, and the
-    run's summary (``env_id``, ``env_kwargs``). The observations are normalised with the run's
+def trained_policy(run: Path) -> tuple[Policy, dict[str, Any], tuple[int, ...]]:
+    """The deterministic policy of a ``train_ppo.py`` run folder, for single observations, the
+    run's summary (``env_id``, ``env_kwargs``) and the observation shape the policy takes. The observations are normalised with the run's
     saved statistics, frozen, as ``evaluate.py`` does."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
@@ -75,7 +75,7 @@ def trained_policy(run: Path) -> tuple[Policy, dict[str, Any]]:
     def policy(obs: np.ndarray) -> np.ndarray:
         return np.asarray(act(obs[None])[0], dtype=np.float32)
 
-    return policy, summary
+    return policy, summary, tuple(model.observation_space.shape)
 
 
 def collect(
@@ -115,7 +115,7 @@ def collect(
         os.environ["MINARI_DATASETS_PATH"] = str(Path(out).resolve())
 
     if policy_run is not None:
-        policy, summary = trained_policy(Path(policy_run))
+        policy, summary, obs_shape = trained_policy(Path(policy_run))
         env_id = summary["env_id"] if env_id is None else env_id
         env_kwargs = summary.get("env_kwargs", {}) if env_kwargs is None else env_kwargs
         name, algorithm = "ppo", "PPO (stable-baselines3), deterministic"
@@ -123,6 +123,11 @@ def collect(
         policy, name, algorithm = None, "scripted", "ScriptedPusher (penalty_env.envs.scripted)"
     env_id = env_id or "PenaltyBalls-v0"
     env = minari.DataCollector(gym.make(env_id, **(env_kwargs or {})), record_infos=record_infos)
+    if policy is not None and env.observation_space.shape != obs_shape:
+        raise ValueError(
+            f"the policy of {str(policy_run)!r} takes observations of shape {obs_shape}, but {env_id} "
+            f"with {env_kwargs or {}} has {env.observation_space.shape}"
+        )
     if policy is None:
         policy = scripted_policy(env)
     dataset_id = dataset_id or f"penalty_env/{env_id}/{name}-v0"
@@ -199,8 +204,10 @@ def main(argv: list[str] | None = None):
     except ValueError as exc:
         p.error(str(exc))
     meta = dataset.storage.metadata
+    reached = sum(bool(episode.terminations[-1]) for episode in dataset.iterate_episodes())  # success ends an episode
     print(
-        f"{meta['dataset_id']}: {dataset.total_episodes} episodes, {dataset.total_steps} steps -> "
+        f"{meta['dataset_id']}: {dataset.total_episodes} episodes ({reached} reached the goal), "
+        f"{dataset.total_steps} steps -> "
         f"{os.environ.get('MINARI_DATASETS_PATH', '~/.minari/datasets')}"
         + (
             f"; reference scores {meta['ref_min_score']:.3f} (random) to {meta['ref_max_score']:.3f}"

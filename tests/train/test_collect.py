@@ -101,9 +101,12 @@ def test_a_trained_run_is_recorded_with_its_normalisation(tmp_path, monkeypatch)
     for obs, action in zip(first.observations[:5], first.actions[:5]):  # one observation at a time, as played
         expected, _ = model.predict(stats.normalize_obs(obs[None]), deterministic=True)
         assert action.tobytes() == expected[0].tobytes()
+    with pytest.raises(ValueError, match=r"takes observations of shape \(21,\), but PenaltyBalls2D-v0"):
+        collect.collect(env_id="PenaltyBalls2D-v0", episodes=1, out=tmp_path / "data", policy_run=run)
 
 
-def test_bad_arguments_are_refused(tmp_path):
+def test_bad_arguments_are_refused(tmp_path, monkeypatch):
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))  # restored after the test, as collect() sets it
     with pytest.raises(ValueError, match="episodes must be an int >= 1, got 0"):
         collect.collect(episodes=0, out=tmp_path)
     with pytest.raises(ValueError, match="--policy must be a run folder"):
