@@ -43,6 +43,7 @@ PRINTS = {
     "gymnasium-async": "(2, 21)",
     "torchrl": ("torch.Size([8, 200])", "['is_success']"),
     "torchrl-gymenv": "torch.Size([2, 10])",
+    "torchrl-parallel": "torch.Size([2, 64, 10])",
     "tianshou": "256",
     "tianshou-envs": "(4, 21)",
     "tianshou-subproc": "(2, 21)",
