@@ -6,7 +6,7 @@
     python train/collect.py --policy runs/ppo-PenaltyBalls-v0-seed0 --episodes 50
 
 Needs the ``minari`` extra (``pip install -e ".[minari]"``: Minari with its ``hdf5`` and
-``create`` extras). Episode k is played in one single env reset with seed ``--seed + k``, and
+``create`` extras). Episode k is played in a single env, reset with seed ``--seed + k``, and
 Minari stores that seed with the episode, so each recorded episode can be replayed exactly:
 ``env.reset(seed=episode_seed)``, then the stored actions, gives back the stored observations,
 rewards, terminations and truncations bit for bit (``tests/train/test_collect.py`` checks it).
@@ -53,9 +53,9 @@ def scripted_policy(env) -> Policy:
 
 
 def trained_policy(run: Path) -> tuple[Policy, dict[str, Any], tuple[int, ...]]:
-    """The deterministic policy of a ``train_ppo.py`` run folder, for single observations, the
-    run's summary (``env_id``, ``env_kwargs``) and the observation shape the policy takes. The observations are normalised with the run's
-    saved statistics, frozen, as ``evaluate.py`` does."""
+    """The deterministic policy of a ``train_ppo.py`` run folder, for single observations; the
+    run's summary (``env_id``, ``env_kwargs``); and the observation shape the policy takes. The
+    observations are normalised with the run's saved statistics, frozen, as ``evaluate.py`` does."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -92,9 +92,8 @@ def collect(
     """Play ``episodes`` episodes (seeds ``seed``, ``seed + 1``, ...) and write them to a Minari
     dataset; returns the ``minari.MinariDataset``.
 
-    ``env_id`` defaults to the run's id with ``policy_run``, else ``PenaltyBalls-v0``; likewise
-    ``env_kwargs``.
-    ``out`` sets ``MINARI_DATASETS_PATH`` for this process (Minari reads it when it writes and
+    ``env_id`` and ``env_kwargs`` default to the run's own with ``policy_run``, else to
+    ``PenaltyBalls-v0`` and its defaults. ``out`` sets ``MINARI_DATASETS_PATH`` for this process (Minari reads it when it writes and
     loads). ``ref_episodes``: episodes of a random policy (and of the recorded policy) that Minari
     plays to store ``ref_min_score`` and ``ref_max_score`` (0: neither is stored).
     ``record_infos``: also store the env's info dicts.
