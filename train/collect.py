@@ -32,7 +32,6 @@ import os
 import sys
 import warnings
 from collections.abc import Callable
-from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 
@@ -155,7 +154,7 @@ def collect(
                 f"{episodes} episodes of {env_id} ({env_kwargs or 'default arguments'}) played by {algorithm}; "
                 f"episode k reset with seed {seed} + k (stored with the episode)."
             ),
-            requirements=[f"penalty-env=={version('penalty-env')}"],
+            requirements=[f"penalty-env=={penalty_env.__version__}"],
             **score,
         )
     env.close()
