@@ -1,6 +1,13 @@
-"""What other libraries read from the envs: frame rates, video recorders, info dtypes."""
+"""What other libraries read from the envs: frame rates, video recorders, info dtypes; what a fresh
+process can make."""
 
 from __future__ import annotations
+
+import os
+import pickle
+import subprocess
+import sys
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -70,3 +77,36 @@ def test_gymnasium_vector_record_video_records_the_native_vector_env(tmp_path):
         rec.step(np.zeros((3, 2), np.float32))
     rec.close()
     assert list(tmp_path.glob("*.mp4"))
+
+
+FRESH = """
+import pickle, sys
+import gymnasium as gym
+try:
+    gym.make("PenaltyBalls-v0")
+    print("plain id: made")
+except gym.error.NameNotFound:
+    print("plain id: NameNotFound")
+assert "penalty_env" not in sys.modules
+print("spec:", gym.make(pickle.loads(bytes.fromhex(sys.argv[1]))).spec.id)  # imports the entry point's module
+print("prefixed id:", gym.make("penalty_env:PenaltyBalls-v0").spec.id)
+"""
+
+
+def test_a_fresh_process_needs_the_prefixed_id_or_the_spec(tmp_path):
+    """What docs/interop.md says of fresh worker processes: Gymnasium loads no plugins, so a plain
+    id is unknown in a process that did not import penalty_env; the module-prefixed id and a
+    pickled spec (what ``make_vec(..., vectorization_mode="async")`` and rl-zoo3 send) both work.
+    If a Gymnasium release loads plugins again, the first line changes and the page must too."""
+    root = Path(__file__).resolve().parents[2]
+    env = dict(os.environ, PYTHONPATH=str(root))
+    spec = pickle.dumps(gym.spec("PenaltyBalls-v0")).hex()
+    res = subprocess.run(
+        [sys.executable, "-c", FRESH, spec], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+    )
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert res.stdout.split("\n")[:3] == [
+        "plain id: NameNotFound",
+        "spec: PenaltyBalls-v0",
+        "prefixed id: PenaltyBalls-v0",
+    ]
