@@ -181,6 +181,9 @@ class PenaltyBallsVecEnv(VecEnv):
         infos = [dict(zip(keys, row)) for row in zip(*buf.info, buf.success.tolist())]
         for info, flag in zip(infos, time_limit.tolist()):
             info["TimeLimit.truncated"] = flag
+        if self.scene.randomize:  # each world's draws at its last reset
+            for i, info in enumerate(infos):
+                info["randomization"] = self.scene.randomization(i)
         return infos
 
     def _get_indices(self, indices: VecEnvIndices) -> Iterable[int]:

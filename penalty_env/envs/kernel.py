@@ -25,6 +25,7 @@ import numpy as np
 from .._jit import njit
 from ..physics.broadphase.grid import build_grid, uses_cells
 from ..physics.diagnostics import deepest_contact
+from ..physics.per_world import of_world, world_model
 from ..physics.stepping.runner import advance
 
 __all__ = [
@@ -65,7 +66,8 @@ class TaskParams(NamedTuple):
     w_reach: float  # reward per metre the pusher gets closer to the push point
     success_bonus: float
     goal_tolerance: float  # success radius, m
-    push_offset: float  # pusher radius + ball radius: the push point's distance behind the ball
+    push_offset: float  # pusher radius + ball radius: the push point's distance behind the ball (a
+    # randomised scene: (B,), each world's)
     substeps: int  # physics steps per env step
     goal_axes: int  # the axes over which the goal is reached: all d, or the d - 1 horizontal (sand)
 
@@ -137,9 +139,10 @@ def _distances(b, x, goal, task, D):
         dg2 += dk * dk
     dg = math.sqrt(dg2)
     inv = 1.0 / dg if dg > 0.0 else 0.0
+    offset = of_world(task.push_offset, b)  # (a float; a randomised scene's (B,) per world)
     dp2 = 0.0
     for k in range(D):
-        push_k = x[b, 1, k] - (goal[b, k] - x[b, 1, k]) * inv * task.push_offset
+        push_k = x[b, 1, k] - (goal[b, k] - x[b, 1, k]) * inv * offset
         dk = push_k - x[b, 0, k]
         dp2 += dk * dk
     return dg, math.sqrt(dp2)
@@ -318,12 +321,13 @@ def _observe_worlds(worlds, stepping, phys, g, task, table, bounds, goal, buf, h
         b = worlds[t]
         if status[b] != 0:
             continue
+        mb = world_model(model, b)  # (the model itself for a fixed scene)
         dg, dp = _distances(b, x, goal, task, task.goal_axes)
         observe(b, x, v, goal, buf.obs, table, bounds, D)
         if hm is not None:  # (compiled away without sand)
-            observe_sand(b, x, model, buf.obs, hm, D)
+            observe_sand(b, x, mb, buf.obs, hm, D)
         info = buf.info
-        info[_R_OVERLAP, b] = _max_overlap(b, x, phys.grid, phys.scratch.partners[b], model, D)
+        info[_R_OVERLAP, b] = _max_overlap(b, x, phys.grid, phys.scratch.partners[b], mb, D)
         info[_R_DISTANCE, b] = dg
         info[_R_PUSHER, b] = dp
         _reward(b, stepping[b], dg, dp, task, buf)

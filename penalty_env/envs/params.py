@@ -16,6 +16,10 @@ import numpy as np
 from .. import _validate as V
 
 __all__ = [
+    "RANDOMIZE",
+    "STIFFNESS_FACTOR",
+    "check_randomize",
+    "check_randomize_override",
     "check_options",
     "check_seed",
     "PARAMETERS",
@@ -102,6 +106,25 @@ CHOICE_PARAMETERS: dict[str, tuple[str, tuple[str, ...], str]] = {
         "rolling resistance rolling_resistance)",
     ),
 }
+
+# Domain randomisation (``randomize=``; the env docstring's "Domain randomisation" section): the
+# names a range may be given for, in the order a reset draws them, each with the keyword argument
+# of PARAMETERS whose allowed range bounds it (None: its own bounds below) and its meaning
+RANDOMIZE: dict[str, tuple[str | None, str]] = {
+    "pusher_mass": ("pusher_mass", "the pusher's mass, kg"),
+    "ball_mass": ("ball_mass", "the ball's mass, kg"),
+    "obstacle_mass": ("obstacle_mass", "every obstacle's mass, kg"),
+    "pusher_radius": ("pusher_radius", "the pusher's radius, m"),
+    "ball_radius": ("ball_radius", "the ball's radius, m"),
+    "obstacle_radius": ("obstacle_radius", "every obstacle's radius, m"),
+    "friction": ("friction", "Coulomb friction coefficient mu of every contact"),
+    "restitution": ("restitution", "restitution of a pusher-ball impact (sets the dashpots)"),
+    "stiffness": (None, "a factor on the derived contact stiffness ks (and the terrain's)"),
+    "max_force": ("max_force", "the pusher motor's stall force, N"),
+    "roughness": ("roughness", "terrain='bumpy': the largest bump height, m"),
+}
+STIFFNESS_FACTOR = (0.25, 4.0)  # the allowed range of the ``stiffness`` factor
+
 
 # Start distribution (the env docstring's "Starting State" table)
 BALL_START_RADIUS = 0.5  # the ball starts within this horizontal distance of the bowl's bottom
@@ -240,3 +263,78 @@ def check_seed(seed: Any) -> int | None:
     if seed is None:
         return None
     return V.integer("seed", seed, 0, None)
+
+
+def check_randomize(randomize: Any, params: dict[str, Any]) -> dict[str, tuple[float, float]]:
+    """``randomize`` (None or a mapping from :data:`RANDOMIZE` names to ``(low, high)`` pairs of
+    finite floats, low <= high, each within its parameter's allowed range) as a dict in the draw
+    order; {} for None. ``params``: the checked keyword arguments (``roughness`` needs
+    ``terrain="bumpy"``; sand refuses randomisation). Raises ValueError naming the bad entry."""
+    if randomize is None:
+        return {}
+    if not isinstance(randomize, Mapping):
+        raise V.ArgumentTypeError(
+            f"randomize must be None or a dict of (low, high) ranges, got {V.describe(randomize)} "
+            f"({type(randomize).__name__})"
+        )
+    unknown = [k for k in randomize if k not in RANDOMIZE]
+    if unknown:
+        raise ValueError(
+            f"randomize has unknown name(s) {', '.join(map(repr, unknown))}; allowed: {', '.join(RANDOMIZE)}"
+        )
+    if randomize and params["grains"]:
+        raise ValueError(
+            f"randomize is not supported with sand yet (grains={params['grains']}): the settled bed is made "
+            "once for the scene's fixed grains and bodies; use a PenaltyBalls id (grains=0)"
+        )
+    if "roughness" in randomize and params["terrain"] != "bumpy":
+        raise ValueError(f"randomize['roughness'] needs terrain='bumpy' (got terrain={params['terrain']!r})")
+    out: dict[str, tuple[float, float]] = {}
+    for name, (param, meaning) in RANDOMIZE.items():
+        if name not in randomize:
+            continue
+        lo_allowed, hi_allowed = STIFFNESS_FACTOR if param is None else PARAMETERS[param][1:3]
+        out[name] = _range(f"randomize[{name!r}]", randomize[name], lo_allowed, hi_allowed, meaning)
+    return out
+
+
+def _range(label: str, value: Any, lo_allowed: float, hi_allowed: float, meaning: str) -> tuple[float, float]:
+    """A (low, high) pair of finite floats with lo_allowed <= low <= high <= hi_allowed."""
+    pair = value.tolist() if isinstance(value, np.ndarray) else value
+    ok = isinstance(pair, (tuple, list)) and len(pair) == 2
+    ok = ok and all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) for v in pair)
+    if not ok or not all(math.isfinite(float(v)) for v in pair):
+        raise ValueError(f"{label} must be a (low, high) pair of finite floats ({meaning}), got {value!r}")
+    lo, hi = float(pair[0]), float(pair[1])
+    if lo > hi:
+        raise ValueError(f"{label} = {value!r}: low must be <= high")
+    if lo < lo_allowed or hi > hi_allowed:
+        raise ValueError(f"{label} = ({lo:g}, {hi:g}) must lie within [{lo_allowed:g}, {hi_allowed:g}] ({meaning})")
+    return lo, hi
+
+
+def check_randomize_override(override: Any, ranges: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
+    """The ranges of one reset: ``ranges`` (the make-time ones) with those of ``override`` (reset
+    option ``randomize``: a mapping of some of their names to pairs within them) replaced. Raises
+    ValueError for a name not randomised at make or a range outside the make-time one (the
+    stability guard and the substep cover only those)."""
+    if override is None:
+        return ranges
+    if not ranges:
+        raise ValueError(
+            "options['randomize'] needs an env made with randomize=... (the guard checks the ranges at make)"
+        )
+    if not isinstance(override, Mapping):
+        raise V.ArgumentTypeError(
+            f"options['randomize'] must be a dict of (low, high) ranges, got {V.describe(override)}"
+        )
+    out = dict(ranges)
+    for name, value in override.items():
+        if name not in ranges:
+            raise ValueError(
+                f"options['randomize'] names {name!r}, which the env was not made to randomise "
+                f"(randomize={{...}} at make: {', '.join(ranges)})"
+            )
+        lo, hi = ranges[name]
+        out[name] = _range(f"options['randomize'][{name!r}]", value, lo, hi, f"within the make-time range of {name}")
+    return out

@@ -170,6 +170,46 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     explicit per substep, must not overshoot), and the obstacles must fit their start region (at
     most 8 of the default size in 3D, 1 in 2D).
 
+    ## Domain randomisation
+
+    `randomize=` (default None: the fixed scene, its episodes unchanged bit for bit) gives ranges,
+    `{name: (low, high)}`, from which every reset draws each world's physics, e.g.
+    `gymnasium.make("PenaltyBalls-v0", randomize={"ball_mass": (0.5, 2.0), "friction": (0.2, 0.8),
+    "restitution": (0.3, 0.6)})` (also `gymnasium.make_vec`, `PenaltyBallsVectorEnv` and
+    `penalty_env.sb3.make_vec_env`). Names, in the order a reset draws them: `pusher_mass`,
+    `ball_mass`, `obstacle_mass`, `pusher_radius`, `ball_radius`, `obstacle_radius`, `friction`,
+    `restitution`, `stiffness` (a factor on the derived contact stiffness `ks` and the terrain's,
+    allowed [0.25, 4]), `max_force` (the motor's strength) and `roughness` (`terrain="bumpy"`
+    only). Each range must lie within its keyword argument's allowed range (the table above); an
+    unknown name, a malformed pair or a range outside raises `ValueError` naming it. Sand
+    (`grains > 0`) refuses randomisation for now.
+
+    - **Draws.** At each reset a world draws one uniform `u` per given name, in the order above,
+      from its own generator (the env's `np_random`; in a vector env world i's, seeded `seed + i`)
+      *before* the start's draws, and takes `low + (high - low) u`; the start then uses the drawn
+      radii. Same seed, same draws and episodes, in the single env, the vector env and SB3 alike.
+    - **What a draw sets**, derived as the fixed scene derives it from its keyword arguments: `ks`
+      from the pusher-ball impact at `max_speed` and the motor's stall force under the penetration
+      tolerance (`physics.configure`'s rule; its further stiffening for a peak-overlap error, 1 at
+      the defaults, is not redone per draw), times `stiffness`; `kd` from the restitution by the
+      no-tension closed form; the terrain's spring stiffened where a body would rest deeper than
+      the tolerance, and its dashpot; `kf` from the lightest pair; the resting overlap `m g / ks`
+      at the start, the push point's offset and the obstacles' clearance from the radii.
+    - **The substep** is fixed at make and covers every draw: the fixed scene's rule (the
+      accuracy step of `configure` and the stability guard) and the motor's feedback bound, taken
+      at every corner of the ranges. Ranges that need a smaller step than the fixed scene's make
+      the scene take more substeps (slower) with a `RandomizationWarning` naming the ranges and
+      the step they need; ranges that would need more than 1,000 substeps per step are refused.
+    - **`reset(options={"randomize": {...}})`** replaces some ranges for that reset only (single
+      env; the vector env's reset too), each within its make-time range (the guard covers only
+      those), else `ValueError`.
+    - **`info["randomization"]`**: the world's drawn values, `{name: float}` (the vector env
+      batches them per name with `_name` masks, as Gymnasium batches a dict-valued info; the SB3
+      `VecEnv` gives each world's dict).
+    - **Cost**: each world's parameters are arrays the kernels read per world (one compile for a
+      randomised scene, none per reset); `python -m penalty_env.bench randomize` measures the
+      env-steps/s against the fixed scene's.
+
     ## Terrain
 
     `terrain=` picks the ground (every choice in 2D too, where planes are lines and the height
@@ -300,9 +340,9 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         seed = check_seed(seed)
-        check_options(options)
+        options = check_options(options, ("randomize",))
         super().reset(seed=seed)
-        self.scene.reset_worlds([0], [self.np_random])
+        self.scene.reset_worlds([0], [self.np_random], randomize=options.get("randomize"))
         self._needs_reset = False
         if self.render_mode == "human":
             self.render()

@@ -43,29 +43,43 @@ from .params import (
     W_GOAL,
     W_REACH,
     check_parameters,
+    check_randomize,
+    check_randomize_override,
     coerce_action,
     render_fps,
 )
+from .randomize import RandomizedScene
 from .sand import SandScene, settled_bed
 from .terrain import TerrainScene
 
 __all__ = ["PenaltyBallsScene", "PARAMETERS", "check_parameters", "coerce_action", "render_fps", "settled_bed"]
 
 
-class PenaltyBallsScene(SandScene, TerrainScene):
+class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene):
     """B worlds of the PenaltyBalls task on one batched ``World``.
 
     Args:
         n_worlds: number of independent worlds B.
         dim: 3 (spheres in a bowl) or 2 (the vertical slice: circles in a circular bowl).
         owner: the caller named in the TypeError for an unknown keyword argument.
+        randomize: None (the fixed scene) or per-world ranges, ``{name: (low, high)}`` with names
+            of :data:`.params.RANDOMIZE` (:mod:`.randomize`; the env docstring's "Domain
+            randomisation" section).
         **params: keyword arguments of :data:`PARAMETERS`.
     """
 
-    def __init__(self, n_worlds: int, dim: int = 3, owner: str = "PenaltyBallsEnv.__init__", **params: Any) -> None:
+    def __init__(
+        self,
+        n_worlds: int,
+        dim: int = 3,
+        owner: str = "PenaltyBallsEnv.__init__",
+        randomize: Any = None,
+        **params: Any,
+    ) -> None:
         n_worlds = V.integer("n_worlds", n_worlds, 1)
         p = check_parameters(dim, params, owner)
         self.params = p
+        self.randomize = check_randomize(randomize, p)
         self.dim = int(dim)
         self.n_worlds = int(n_worlds)
         self._bodies(p)
@@ -163,6 +177,8 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         if self.control_period / self.substeps > dt_max:  # rounding
             self.substeps += 1
         self.dt = self.control_period / self.substeps
+        if self.randomize:  # a substep every draw is stable at (more substeps, with a warning, if needed)
+            self._randomized_substeps(probe, dt_max)
         # regularised Coulomb friction: the viscous slope kf is the largest that still brings the
         # lightest contact's sliding to rest within one substep without overshoot (kf dt / m = 1)
         m_sorted = np.sort(self.masses)
@@ -195,6 +211,8 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         # (no start check: the resets place every ball clear of the others and on the terrain)
         lead = self.n_bodies if n_grains else 0
         own = dict(common, stepping=stepping, motors=[motor], grid_lead=lead, start_check=False)
+        if self.randomize:  # each world's physics its own, set at its reset
+            own["per_world"] = True
         if self.rolling:
             self.world = World(
                 start,
@@ -233,13 +251,15 @@ class PenaltyBallsScene(SandScene, TerrainScene):
     def _task(self, p: dict[str, Any]) -> None:
         """The task's constants the kernel reads, and where bodies rest."""
         d, n_grains = self.dim, self.n_grains
+        if self.randomize:  # per world (set at each reset; the fixed values until then)
+            self._push_offset = np.full(self.n_worlds, p["pusher_radius"] + p["ball_radius"])
         # --- the task's constants the kernel reads (the contact model is the World's own)
         self.task = KE.TaskParams(
             w_goal=W_GOAL,
             w_reach=W_REACH,
             success_bonus=SUCCESS_BONUS,
             goal_tolerance=self.goal_tolerance,
-            push_offset=p["pusher_radius"] + p["ball_radius"],
+            push_offset=self._push_offset if self.randomize else p["pusher_radius"] + p["ball_radius"],
             substeps=self.substeps,
             goal_axes=d - 1 if n_grains else d,  # with sand, the goal is reached horizontally
         )
@@ -250,6 +270,12 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         self._rest_radii = np.append(self.radii[:nb] - rest_depth[:nb], self.radii[1] - rest_depth[1])
         self._radii_list = self.radii.tolist()
         self._contact = float(self.radii[0] + self.radii[1])
+        if self.randomize:
+            B = self.n_worlds
+            self._rest_radii = np.tile(self._rest_radii, (B, 1))
+            self._radii_rows = np.tile(self.radii, (B, 1))
+            self._roughness_rows = np.full(B, float(self.roughness))
+            self.drawn = np.tile([self._nominal(n) for n in self.randomize], (B, 1))
 
     def _buffers(self) -> None:
         """Per-world state and output buffers (allocated once), the sand's bed, the kernel's calls."""
@@ -391,19 +417,32 @@ class PenaltyBallsScene(SandScene, TerrainScene):
 
     # ------------------------------------------------------------------ resets
     def reset_worlds(
-        self, worlds: Sequence[int] | np.ndarray, rngs: Sequence[np.random.Generator | None], observe: bool = True
+        self,
+        worlds: Sequence[int] | np.ndarray,
+        rngs: Sequence[np.random.Generator | None],
+        observe: bool = True,
+        randomize: Any = None,
     ) -> None:
         """Draw a new start for each world in ``worlds`` from the matching generator in ``rngs``,
         and (``observe``) compute its observation. With ``observe=False`` the world's flag is left
-        off, so the next ``step`` observes it without stepping it."""
+        off, so the next ``step`` observes it without stepping it. A randomised scene first draws
+        each world's physics (``randomize``: ranges that replace some of the make-time ones for
+        these resets, each within its make-time range)."""
         idx = np.asarray(worlds, dtype=np.int64)
         # horizontal positions (k, n + 1, d - 1): the balls, then the goal; lifted onto the
         # terrain together below
         if any(rng is None for rng in rngs):
             raise ValueError("every world reset needs its random generator (reset the env, with or without a seed)")
-        flat = np.array([self._sample(rng) for rng in rngs if rng is not None]).reshape(idx.size, self.n_bodies + 1, -1)
+        if self.randomize:  # each world's physics, drawn before its start
+            self._apply_draws(idx, list(rngs), randomize)
+            flat = np.array([self._sample(rng, int(b)) for b, rng in zip(idx, rngs)])
+        else:
+            check_randomize_override(randomize, self.randomize)  # (refuses ranges: none at make)
+            flat = np.array([self._sample(rng) for rng in rngs if rng is not None])
+        flat = flat.reshape(idx.size, self.n_bodies + 1, -1)
         if self.terrain_kind == "bumpy":
-            heights = np.array([self._bump_heights(rng) for rng in rngs if rng is not None])
+            rough = [self.roughness] * idx.size if not self.randomize else self._roughness_rows[idx].tolist()
+            heights = np.array([self._bump_heights(rng, h) for rng, h in zip(rngs, rough)])
             self.world.set_heights(0, heights, worlds=idx)
             self.terrain_version[idx] += 1
         pos = self._on_terrain(flat, idx)
@@ -424,11 +463,12 @@ class PenaltyBallsScene(SandScene, TerrainScene):
             self._run(idx, self._split(idx))
             self.stepping[idx] = True
 
-    def _sample(self, rng: np.random.Generator) -> list[float]:
+    def _sample(self, rng: np.random.Generator, b: int | None = None) -> list[float]:
         """One start's horizontal coordinates, flat: pusher, ball, obstacles, goal. The draws
         (documented in the env's "Starting State") come in a fixed order. Plain floats: a start is
-        a handful of scalars, and numpy's per-call cost would dominate."""
-        contact = self._contact
+        a handful of scalars, and numpy's per-call cost would dominate. ``b``: a randomised scene's
+        world (its drawn radii); None: the fixed radii."""
+        contact = self._contact if b is None else float(self._push_offset[b])
         g0, g1 = GOAL_DISTANCE
         ball: tuple[float, ...]
         target: tuple[float, ...]
@@ -451,15 +491,18 @@ class PenaltyBallsScene(SandScene, TerrainScene):
             pusher = (ball[0] - side * (contact + p0 + (p1 - p0) * u[3]),)
         placed = [pusher, ball]
         if self.n_obstacles:
-            self._place_obstacles(rng, placed, target)
+            self._place_obstacles(rng, placed, target, None if b is None else self._radii_rows[b].tolist())
         placed.append(target)
         return [c for h in placed for c in h]
 
-    def _place_obstacles(self, rng: np.random.Generator, placed: list, target: tuple) -> None:
-        """Rejection sampling: uniform in the obstacle region, clear of every ball and the goal."""
+    def _place_obstacles(
+        self, rng: np.random.Generator, placed: list, target: tuple, radii: list[float] | None = None
+    ) -> None:
+        """Rejection sampling: uniform in the obstacle region, clear of every ball and the goal
+        (``radii``: the world's; None: the fixed scene's)."""
         d = self.dim
         region = OBSTACLE_REGION[d]
-        radii = self._radii_list
+        radii = self._radii_list if radii is None else radii
         r_o = radii[2]
         goal_clear = r_o + self.goal_tolerance
         for _ in range(self.n_obstacles):
@@ -488,6 +531,8 @@ class PenaltyBallsScene(SandScene, TerrainScene):
         buf = self.buffers
         info = dict(zip(KE.INFO_KEYS, buf.info[:, b]))  # iterating a float64 array gives its scalars
         info["is_success"] = bool(buf.success[b])
+        if self.randomize:
+            info["randomization"] = self.randomization(b)
         return info
 
     def describe(self) -> str:

@@ -46,16 +46,16 @@ class TerrainScene:
         field = HeightField(self._bumpy_floor, BUMPY_CELL, origin=(-BUMPY_HALF_WIDTH,) * (d - 1))
         return (field, self.bowl)
 
-    def _bump_heights(self, rng: np.random.Generator) -> np.ndarray:
+    def _bump_heights(self, rng: np.random.Generator, roughness: float | None = None) -> np.ndarray:
         """A new bumpy floor: the bowl's plus BUMPY_COUNT Gaussian bumps of random centre, width and
         height (0.3 to 1 x ``roughness``), faded out towards the field's edge, their sum scaled so that
         its top is the tallest bump's height (so never above ``roughness``). Draws d + 1 uniforms per
-        bump from ``rng``, after the start's."""
+        bump from ``rng``, after the start's. ``roughness``: a randomised world's (None: the scene's)."""
         d = self.dim
         u = rng.random((BUMPY_COUNT[d], d + 1))
         centre = (2.0 * u[:, : d - 1] - 1.0) * (BUMPY_HALF_WIDTH - BUMPY_TAPER)
         sigma = BUMPY_WIDTH[0] + (BUMPY_WIDTH[1] - BUMPY_WIDTH[0]) * u[:, d - 1]
-        height = self.roughness * (0.3 + 0.7 * u[:, d])
+        height = (self.roughness if roughness is None else roughness) * (0.3 + 0.7 * u[:, d])
         ax = self._bumpy_axis
         g = [
             np.exp(-0.5 * ((ax[None, :] - centre[:, k, None]) / sigma[:, None]) ** 2) * self._bumpy_taper
@@ -73,16 +73,18 @@ class TerrainScene:
         the last slot (the goal) as the ball. ``worlds=None``: ``h`` is (n + 1, d - 1), world 0."""
         if worlds is None:
             return self._on_terrain(np.asarray(h)[None], np.zeros(1, dtype=np.int64))[0]
+        # resting radii: the scene's (n + 1,), or a randomised scene's rows per world
+        rest = self._rest_radii if self._rest_radii.ndim == 1 else self._rest_radii[worlds]
         if self.terrain_kind == "bowl":
             R = self.bowl_radius
-            depth = R - self._rest_radii  # distance of a resting centre from the bowl's centre
+            depth = R - rest  # distance of a resting centre from the bowl's centre
             z = R - np.sqrt(depth**2 - np.sum(h * h, axis=-1))
         elif self.terrain_kind == "arena":
-            z = np.broadcast_to(self._rest_radii, h.shape[:-1])
+            z = np.broadcast_to(rest, h.shape[:-1])
         else:  # the height field's phi is (z - h) n_z: phi = rest radius at z = (rest - phi(z = 0)) / n_z
             z = np.empty(h.shape[:-1])
             for t, b in enumerate(worlds):
                 ground = np.concatenate([h[t], np.zeros((h.shape[1], 1))], axis=-1)
                 phi0, normal = self.world.shape_distance(0, ground, world=int(b))
-                z[t] = (self._rest_radii - phi0) / normal[:, -1]
+                z[t] = ((rest if rest.ndim == 1 else rest[t]) - phi0) / normal[:, -1]
         return np.concatenate([h, z[..., None]], axis=-1)

@@ -92,7 +92,7 @@ class PenaltyBallsVectorEnv(VectorEnv):
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         N = self.num_envs
-        options = check_options(options, ("reset_mask",))
+        options = check_options(options, ("reset_mask", "randomize"))
         if seed is None or isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
             seed = check_seed(seed)
             seeds: list[int | None] = [None] * N if seed is None else [seed + i for i in range(N)]
@@ -117,7 +117,7 @@ class PenaltyBallsVectorEnv(VectorEnv):
         for i in idx:
             if seeds[i] is not None or self._rngs[i] is None:
                 self._rngs[i] = seeding.np_random(seeds[i])[0]
-        self.scene.reset_worlds(idx, [self._rngs[i] for i in idx])
+        self.scene.reset_worlds(idx, [self._rngs[i] for i in idx], randomize=options.get("randomize"))
         self._steps[idx] = 0
         self._done[idx] = False
         self._started = True
@@ -202,6 +202,12 @@ class PenaltyBallsVectorEnv(VectorEnv):
             infos["_" + key] = masks[j]
         infos["is_success"] = success
         infos["_is_success"] = masks[-1]
+        if self.scene.randomize:  # each world's draws, nested as Gymnasium batches a dict-valued info
+            sub: dict[str, Any] = {}
+            for j, name in enumerate(self.scene.randomize):
+                sub[name] = np.where(mask, self.scene.drawn[:, j], 0.0)
+                sub["_" + name] = masks[-1]
+            infos["randomization"], infos["_randomization"] = sub, masks[-1]
         return infos
 
     def __repr__(self) -> str:

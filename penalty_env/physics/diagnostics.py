@@ -13,6 +13,7 @@ from .broadphase.grid import build_grid, uses_cells
 from .broadphase.partners import partner, partners
 from .contact.pair import pair_overlap
 from .contact.terrain import terrain_measure
+from .per_world import world_model
 
 __all__ = ["contact_energy", "deepest_contact", "world_energy", "world_max_penetration"]
 
@@ -54,14 +55,15 @@ def world_energy(x, v, grid, buf, model, g, out):
     """Per world: kinetic + gravitational (-m g . x) + penalty springs (1/2 ks overlap^2)."""
     D = len(g)
     for b in range(x.shape[0]):
+        mb = world_model(model, b)
         e = 0.0
         for i in range(x.shape[1]):
-            m = 1.0 / model.inv_mass[i]
+            m = 1.0 / mb.inv_mass[i]
             for k in range(D):
                 e += 0.5 * m * v[b, i, k] * v[b, i, k] - m * g[k] * x[b, i, k]
         if uses_cells(grid):
             build_grid(b, x, grid, model.cell_size, D)
-        out[b] = e + contact_energy(b, x, grid, buf[b], model, D)
+        out[b] = e + contact_energy(b, x, grid, buf[b], mb, D)
 
 
 @njit(entry=True, nogil=True)
@@ -73,4 +75,4 @@ def world_max_penetration(worlds, x, grid, buf, model, g, out):
         b = worlds[t]
         if uses_cells(grid):
             build_grid(b, x, grid, model.cell_size, D)
-        out[t] = deepest_contact(b, x, grid, buf[b], model, D)
+        out[t] = deepest_contact(b, x, grid, buf[b], world_model(model, b), D)

@@ -23,6 +23,7 @@ from .geometry.shapes import Shape
 from .geometry.user import SDF
 from .guard import STABILITY_SAFETY, EnergyDriftWarning, StabilityGuard, StartOverlapWarning
 from .model import TANGENTIAL, Model, Spin, State, new_control, new_spin
+from .world_parameters import ParameterAccess, per_world_model
 from .stepping.common import STATUS_CG, STATUS_NONFINITE
 from .stepping.integrators import INTEGRATORS, allocate_work
 from .stepping.lanes import LANES_MAX_BALLS, LANES_MIN_WORLDS
@@ -60,7 +61,7 @@ MAX_STEPS_PER_CALL = 2**62  # ``step(n)``: the kernels count steps in int64
 MAX_HISTORY_BYTES = 2 * 2**30
 
 
-class World(StabilityGuard, TerrainAccess, StateAccess):
+class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
     """Balls (spheres in 3D, circles in 2D) with penalty contacts, in implicit terrain.
 
     Args:
@@ -118,6 +119,13 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
             :meth:`set_state` has two balls, or a ball and the terrain, overlapping by the smaller
             radius or more. On by default; a caller whose placement cannot overlap (the envs) turns
             it off, and spares its compile and its cost per reset.
+        per_world: the World's physics parameters may differ between its worlds (domain
+            randomisation): the masses, radii, contact parameters (``ks, kd, ks_terrain,
+            kd_terrain, mu, kf``) and the motors' ``max_force`` start as given here for every world,
+            and :meth:`set_parameters` changes them for some worlds. The kernels read them through
+            :mod:`penalty_env.physics.per_world` (compiled once for a per-world scene, and not at all
+            for a fixed one, which runs exactly the code it ran before). Scalar and lanes stepping,
+            without ``events`` and without ``tangential="history"``.
         events: event-located stepping (:mod:`penalty_env.physics.stepping.events`): each step
             stops at every contact switch (a contact beginning or ending) and crosses it, which
             restores the integrator's order (RK4: 4th order instead of 1st with damping) at the
@@ -160,6 +168,7 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
         kr: float | None = None,
         motors: Sequence[Motor] = (),
         grid_lead: int = 0,
+        per_world: bool = False,
     ) -> None:
         x, v, self._batched = state_arrays(positions, velocities)
         B, n, d = x.shape
@@ -182,6 +191,7 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
         self.tangential = V.choice("tangential", tangential, TANGENTIAL)
         self.mu_r = V.non_negative("mu_r", mu_r)
         self._motors = motor_arrays(motors, n, d)
+        self.per_world = V.flag("per_world", per_world)
         self._check_combinations()
         self._tangential_parameters(kf, kt, kd_t, kr)
         self.use_grid = self.broadphase == "grid" or (self.broadphase == "auto" and n >= GRID_MIN_BALLS)
@@ -213,6 +223,11 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
                 f"tangential='history' advances each contact's spring once per step, which needs an integrator "
                 f"with one force pass per step: symplectic_euler or explicit_euler (got {self.integrator!r})"
             )
+        if self.per_world and (self.events or self.tangential == "history"):
+            raise ValueError(
+                "per_world=True does not support events=True or tangential='history' yet: use events=False "
+                "and tangential='coulomb'"
+            )
         if self.integrator == "implicit_euler" and self.damping == "no_tension":
             # its frozen-contact Jacobian cannot see the clip: the solve would pull separating
             # balls together, which is what no_tension exists to prevent
@@ -236,6 +251,8 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
                 f"dt={self.dt:g}): sliding would overshoot and gain energy. Use kf <= {self.kf_max:g}, a smaller dt, "
                 "or allow_unstable=True."
             )
+        self._kf_default = kf is None  # (a per-world World re-derives a default kf from each world's masses)
+        self._kr_default = kr is None
         self.kt = 2.0 / 7.0 * self.ks if kt is None else V.positive("kt", kt)
         self.kd_t = 0.5 * self.kd if kd_t is None else V.non_negative("kd_t", kd_t)
         self._history = self.tangential == "history" and self.mu > 0.0
@@ -253,6 +270,10 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
         the fastest that applies (measured crossovers: ``python -m penalty_env.bench core``)."""
         euler = self.integrator in _EULERS
         motors = self._motors.ball.shape[0] > 0
+        if self.per_world and stepping == "neighbour_list":
+            raise ValueError(
+                "per_world=True steps on the scalar and lanes paths only: use stepping='scalar', 'lanes' or 'auto'"
+            )
         if self._spinning and stepping in ("lanes", "neighbour_list"):
             raise ValueError(
                 f"stepping={stepping!r} does not support rotation=True or tangential='history' yet: use "
@@ -266,7 +287,7 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
         if stepping == "auto":
             if self.events or self._spinning:
                 return "scalar"
-            if n >= LARGE_WORLD_MIN_BALLS and self.use_grid and euler and not motors:
+            if n >= LARGE_WORLD_MIN_BALLS and self.use_grid and euler and not motors and not self.per_world:
                 return "neighbour_list"
             if not self.use_grid and euler and n <= LANES_MAX_BALLS and B >= LANES_MIN_WORLDS:
                 return "lanes"
@@ -300,7 +321,7 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
                 f"balls would need {need / 2**30:.3g} GiB, above {MAX_HISTORY_BYTES / 2**30:g} GiB; use fewer "
                 "balls per world, or tangential='coulomb'"
             )
-        return new_spin(
+        spin = new_spin(
             B,
             n,
             d,
@@ -314,6 +335,9 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
             kr=self.kr,
             dt=self.dt,
         )
+        if self.per_world:  # per world: each world's inertia and rolling-resistance slope
+            spin = spin._replace(inv_inertia=np.tile(spin.inv_inertia, (B, 1)), kr=np.full(B, spin.kr))
+        return spin
 
     def _build(self, x: np.ndarray, v: np.ndarray, lead: int) -> None:
         """The model, the state, the buffers (allocated once: nothing is allocated while stepping)
@@ -326,6 +350,7 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
                 _probe_user(shape, x)
         self._spin = self._new_spin(B, n, d)
         others = self.radii[lead:] if lead else self.radii
+        self._lead = lead
         self._model = Model(
             radii=self.radii,
             inv_mass=1.0 / self.masses,
@@ -340,6 +365,8 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
             shapes=packed.table,
             motors=self._motors,
         )
+        if self.per_world:
+            self._model = per_world_model(self._model, B)
         self._state = State(x, v)
         self._status = np.zeros(B, dtype=np.int64)
         self._control = new_control(B, n, d, self._motors.ball.shape[0])
@@ -348,7 +375,7 @@ class World(StabilityGuard, TerrainAccess, StateAccess):
         self._all_worlds = np.arange(B, dtype=np.int64)
         cells = 16 if lead else 4
         self._grid = new_grid(B, n, lead=lead, cells_per_ball=cells) if self.use_grid else no_grid()
-        self._runner = Runner(
+        self._runner = Runner(  # (a per-world model: the runner's lanes scratch holds parameter rows too)
             self.stepping,
             self.integrator,
             self.events,

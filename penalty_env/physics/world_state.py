@@ -216,7 +216,8 @@ class StateAccess:
         if self._spin is not None:
             sp = self._spin
             if self.rotation:
-                self._scalar += 0.5 * np.einsum("bnk,bnk,n->b", sp.w, sp.w, 1.0 / sp.inv_inertia)
+                inertia = np.broadcast_to(1.0 / sp.inv_inertia, sp.w.shape[:2])  # ((n,) or per world (B, n))
+                self._scalar += 0.5 * np.einsum("bnk,bnk,bn->b", sp.w, sp.w, inertia)
             if sp.kt > 0.0:
                 live = sp.stamp == sp.clock[:, None, None]
                 self._scalar += 0.5 * sp.kt * np.einsum("bij,bijk,bijk->b", live, sp.hist, sp.hist)
@@ -227,21 +228,26 @@ class StateAccess:
         self._max_penetration_of(self._all_worlds, self._scalar)
         return self._per_world(self._scalar)
 
+    def _ball_masses(self) -> np.ndarray:
+        """The masses, ``(B, n)`` (each world's own when the World is per-world)."""
+        return np.broadcast_to(1.0 / self._model.inv_mass, self._state.positions.shape[:2])
+
     def momentum(self) -> np.ndarray:
         """Total linear momentum per world, ``(d,)`` or ``(B, d)``."""
-        p = np.einsum("bnd,n->bd", self._state.velocities, self.masses)
+        p = np.einsum("bnd,bn->bd", self._state.velocities, self._ball_masses())
         return p if self._batched else p[0]
 
     def angular_momentum(self) -> np.ndarray:
         """Total angular momentum about the origin per world, sum of m x cross v + I w: ``(3,)`` in
         3D, ``(1,)`` in 2D (about the axis out of the plane), ``(B, .)`` when batched."""
         x, v = self._state
-        m = self.masses[None, :, None]
+        m = self._ball_masses()[..., None]
         if self.dim == 3:
             L = np.cross(x, m * v).sum(axis=1)
         else:
             L = (x[..., 0] * v[..., 1] - x[..., 1] * v[..., 0])[..., None] * m
             L = L.sum(axis=1)
         if self.rotation and self._spin is not None:
-            L = L + np.einsum("bnk,n->bk", self._spin.w, 1.0 / self._spin.inv_inertia)
+            inertia = np.broadcast_to(1.0 / self._spin.inv_inertia, self._spin.w.shape[:2])
+            L = L + np.einsum("bnk,bn->bk", self._spin.w, inertia)
         return L if self._batched else L[0]

@@ -20,6 +20,7 @@ from ..._jit import njit
 from ..geometry.evaluate import is_direct, is_moving, miss_test, to_local, to_parent
 from ..geometry.sdf import BOX, PLANE, sdf_box, sdf_plane
 from ..geometry.table import P0, SIGN
+from ..per_world import lane, lane_law
 from .law import normal_force, regularised_ratio
 from .terrain import shape_force, terrain_law
 
@@ -30,11 +31,15 @@ __all__ = ["pair_lanes", "direct_terrain_lanes", "summed_terrain_lanes", "shared
 def pair_lanes(i, j, X, V, A, F, W, model, g):
     """Sphere i against sphere j in every lane: :func:`.pair.pair_force`, masked."""
     D = len(g)
-    l0 = model.radii[i] + model.radii[j]
-    ks = model.ks
-    kd = model.kd
-    mu = model.mu
+    ri = model.radii[i]
+    rj = model.radii[j]
     for w in range(W):
+        # (a fixed scene's parameters are floats, which ``lane`` returns as they are: LLVM hoists
+        # them out of the loop; a per-world scene's are lane rows)
+        l0 = lane(ri, w) + lane(rj, w)
+        ks = lane(model.ks, w)
+        kd = lane(model.kd, w)
+        mu = lane(model.mu, w)
         dist2 = 0.0
         for k in range(D):
             dx = X[j, k, w] - X[i, k, w]
@@ -59,7 +64,7 @@ def pair_lanes(i, j, X, V, A, F, W, model, g):
                 nk = (X[j, k, w] - X[i, k, w]) * inv + (e_last if k == D - 1 else 0.0)
                 vtk = (V[j, k, w] - V[i, k, w]) - vn * nk
                 vt2 += vtk * vtk
-            ratio = regularised_ratio(model.kf, mu, fn, vt2)
+            ratio = regularised_ratio(lane(model.kf, w), mu, fn, vt2)
         for k in range(D):
             nk = (X[j, k, w] - X[i, k, w]) * inv + (e_last if k == D - 1 else 0.0)
             fk = fn * nk
@@ -79,17 +84,18 @@ def _round_lanes(i, s, c0, c1, c2, X, V, A, F, W, model, g):
     """Sphere i against the static sphere or bowl s (centre c) in every lane: its force to A."""
     D = len(g)
     table = model.shapes
-    r = model.radii[i]
-    ks = model.ks_terrain
-    kd = model.kd_terrain
-    mu = model.mu
+    ri = model.radii[i]
     sign = table.shape[s, SIGN]
     R = table.shape[s, P0]
-    # the scalar kernel's early miss test, as a mask: a Sphere is touched only inside R + r, a
-    # Bowl only outside R - r (kept: where R + r rounds down, pen can be ~1e-17 > 0 beyond it)
     is_sphere = sign > 0.0
-    t_miss = (R + r) * (R + r) if is_sphere else ((R - r) * (R - r) if R > r else -1.0)
     for w in range(W):
+        r = lane(ri, w)
+        ks = lane(model.ks_terrain, w)
+        kd = lane(model.kd_terrain, w)
+        mu = lane(model.mu, w)
+        # the scalar kernel's early miss test, as a mask: a Sphere is touched only inside R + r, a
+        # Bowl only outside R - r (kept: where R + r rounds down, pen can be ~1e-17 > 0 beyond it)
+        t_miss = (R + r) * (R + r) if is_sphere else ((R - r) * (R - r) if R > r else -1.0)
         d0 = X[i, 0, w] - c0
         d1 = X[i, 1, w] - c1
         d2 = X[i, 2, w] - c2 if D == 3 else 0.0
@@ -124,7 +130,7 @@ def _round_lanes(i, s, c0, c1, c2, X, V, A, F, W, model, g):
             if D == 3:
                 t2 = V[i, 2, w] - vn * g2
                 vt2 += t2 * t2
-            ratio = regularised_ratio(model.kf, mu, fn, vt2)
+            ratio = regularised_ratio(lane(model.kf, w), mu, fn, vt2)
         f0 = fn * g0
         f1 = fn * g1
         f2 = fn * g2
@@ -184,11 +190,13 @@ def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
     the scalar's. Compiled once per ``sdf``."""
     D = len(g)
     table = model.shapes
-    r = model.radii[i]
+    ri = model.radii[i]
     par = table.shape[s]
     sg, a0, a1, a2 = par[SIGN], par[P0], par[P0 + 1], par[P0 + 2]
-    ks, kd, clip, mu, kf = model.ks_terrain, model.kd_terrain, model.no_tension, model.mu, model.kf
+    clip = model.no_tension
     for w in range(W):
+        r = lane(ri, w)
+        ks, kd, mu, kf = lane(model.ks_terrain, w), lane(model.kd_terrain, w), lane(model.mu, w), lane(model.kf, w)
         p0, p1, p2 = X[i, 0, w], X[i, 1, w], (X[i, 2, w] if D == 3 else 0.0)
         miss = miss_test(pose, par, p0, p1, p2, r, D)
         q0, q1, q2 = to_local(pose, p0, p1, p2, D)
@@ -214,7 +222,7 @@ def summed_terrain_lanes(i, X, V, A, G, W, worlds, statics, model, g):
     pose differs between lanes) through the scalar function one lane at a time."""
     D = len(g)
     table = model.shapes
-    r = model.radii[i]
+    ri = model.radii[i]
     for k in range(D):
         for w in range(W):
             G[k, w] = 0.0
@@ -232,7 +240,7 @@ def summed_terrain_lanes(i, X, V, A, G, W, worlds, statics, model, g):
             p2 = X[i, 2, w] if D == 3 else 0.0
             u2 = V[i, 2, w] if D == 3 else 0.0
             touching, f0, f1, f2 = shape_force(
-                table, b, s, X[i, 0, w], X[i, 1, w], p2, V[i, 0, w], V[i, 1, w], u2, r, model, D
+                table, b, s, X[i, 0, w], X[i, 1, w], p2, V[i, 0, w], V[i, 1, w], u2, lane(ri, w), lane_law(model, w), D
             )
             if touching:
                 G[0, w] += f0

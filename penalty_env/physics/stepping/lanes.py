@@ -17,12 +17,15 @@ external forces, the motors' throttles (rows by motor) and the pair-force buffer
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..._jit import njit
 from ..contact.lanes import direct_terrain_lanes, pair_lanes, shared_statics, summed_terrain_lanes
 from ..contact.terrain import has_summed_shapes
 from ..geometry.evaluate import advance_shapes
+from ..per_world import lane, lane_buffers, lane_model, lane_rows
 from .common import STATUS_OK, final_status, motor_force
 
 __all__ = ["LANES", "LANES_MAX_BALLS", "LANES_MIN_WORLDS", "SCRATCH_ROWS", "lanes_step", "run_lanes"]
@@ -80,12 +83,13 @@ def lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, summed, statics
 @njit(hot=True)
 def _update_lanes(x, v, a, e, W, im, gk, dt, has_ext, symplectic):
     """Symplectic (or explicit) Euler on one coordinate of one ball in every lane: a = (f [+ e]) / m
-    + g. Called with constant flags (each call inlined and specialised by LLVM)."""
+    + g. Called with constant flags (each call inlined and specialised by LLVM). ``im``: the ball's
+    1 / m, a float (a fixed scene) or a lane row (per-world)."""
     for w in range(W):
         if has_ext:
-            ak = (a[w] + e[w]) * im + gk
+            ak = (a[w] + e[w]) * lane(im, w) + gk
         else:
-            ak = a[w] * im + gk
+            ak = a[w] * lane(im, w) + gk
         if symplectic:
             v[w] += dt * ak
             x[w] += dt * v[w]
@@ -140,23 +144,27 @@ def _motors_lanes(block, W, V, E, T, control, motors):
         inv = motors.inv_max_speed[q]
         for k in range(motors.axes[q]):
             for w in range(W):
-                f = motor_force(fmax, inv, T[q, k, w], V[i, k, w])
+                f = motor_force(lane(fmax, w), inv, T[q, k, w], V[i, k, w])
                 E[i, k, w] = control.forces[block[w], i, k] + f if given else f
 
 
 @njit(nogil=True)
 def run_lanes(symplectic, worlds, nsteps, dt, x, v, scratch, control, model, g, status):
     """The listed worlds of (B, n, D) state, LANES at a time, ``nsteps`` steps each (``scratch`` is
-    (SCRATCH_ROWS, n, D, LANES), this thread's); sets their ``status``. Returns how many blew up."""
+    (SCRATCH_ROWS, n, D, LANES), this thread's; with per-world parameters the pair of it and the
+    thread's parameter scratch, :func:`new_lane_scratch`); sets their ``status``. Returns how many
+    blew up."""
     D = len(g)
-    X, V, A, E, T = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
-    F = scratch[5, 0]
-    motors = model.motors
-    has_ext = control.flags[0] != 0 or motors.ball.shape[0] > 0
+    sc, P = lane_buffers(scratch)
+    X, V, A, E, T = sc[0], sc[1], sc[2], sc[3], sc[4]
+    F = sc[5, 0]
+    has_ext = control.flags[0] != 0 or model.motors.ball.shape[0] > 0
     bad = 0
     for c in range(0, worlds.shape[0], LANES):
         W = min(LANES, worlds.shape[0] - c)
         block = worlds[c : c + W]
+        lm = lane_model(model, block, W, P)  # (the model itself for a fixed scene)
+        motors = lm.motors
         _load_block(block, W, x, v, X, V)
         summed = has_summed_shapes(model.shapes)
         statics = shared_statics(model.shapes, block, W, D)
@@ -165,7 +173,7 @@ def run_lanes(symplectic, worlds, nsteps, dt, x, v, scratch, control, model, g, 
         for _ in range(nsteps):
             if motors.ball.shape[0] > 0:
                 _motors_lanes(block, W, V, E, T, control, motors)
-            lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, summed, statics, model, g)
+            lanes_step(symplectic, dt, X, V, A, E, has_ext, F, W, block, summed, statics, lm, g)
         _store_block(block, W, x, v, X, V)
         for w in range(W):
             b = block[w]
@@ -174,6 +182,11 @@ def run_lanes(symplectic, worlds, nsteps, dt, x, v, scratch, control, model, g, 
     return bad
 
 
-def new_lane_scratch(threads: int, n: int, d: int) -> np.ndarray:
-    """One block scratch per thread."""
-    return np.zeros((threads, SCRATCH_ROWS, n, d, LANES))
+def new_lane_scratch(threads: int, n: int, d: int, per_world_motors: int | None = None) -> Any:
+    """One block scratch per thread: an array ``(threads, SCRATCH_ROWS, n, d, LANES)``; for a scene
+    with per-world parameters (``per_world_motors``: its motor count) a list of one pair per thread,
+    the block scratch and a ``(lane_rows, LANES)`` parameter scratch (:mod:`..per_world`).)"""
+    blocks = np.zeros((threads, SCRATCH_ROWS, n, d, LANES))
+    if per_world_motors is None:
+        return blocks
+    return [(blocks[t], np.zeros((lane_rows(n, per_world_motors), LANES))) for t in range(threads)]

@@ -220,7 +220,9 @@ class Runner:
         self.all_worlds = np.arange(B, dtype=np.int64)
         self.scratch = new_scratch(B, n, d)
         self.event_buffers = _events.allocate(B, n, d) if events else None
-        self.lane_scratch = _lanes.new_lane_scratch(thread_count(), n, d) if path == "lanes" else None
+        per_world = isinstance(model.ks, np.ndarray)  # (then a lanes scratch has parameter rows too)
+        motors = model.motors.ball.shape[0] if per_world else None
+        self.lane_scratch = _lanes.new_lane_scratch(thread_count(), n, d, motors) if path == "lanes" else None
         self.lists = NeighbourLists(model, B, n, d, thread_count()) if path == "neighbour_list" else None
         if path == "lanes":
             sym = integrator == "symplectic_euler"

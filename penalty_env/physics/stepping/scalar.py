@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from ..._jit import njit, overload_kernel
 from ..geometry.evaluate import advance_shapes
+from ..per_world import world_model, world_spin
 from .common import STATUS_CG, STATUS_OK, final_status, step_forces
 from .integrators import ImplicitEulerWork, integrate, is_work
 from .spin_steps import spin_tick
@@ -70,13 +71,15 @@ def run_worlds(worlds, nsteps, dt, x, v, work, control, grid, scratch, model, sp
     bad = 0
     for t in range(worlds.shape[0]):
         b = worlds[t]
+        mb = world_model(model, b)  # world b's parameters (the model itself for a fixed scene)
+        sb = world_spin(spin, b)
         begin_world(work, b)
         ok = True
         for _ in range(nsteps):
             if has_motors:
-                step_forces(b, v, control, model.motors, ext, D)
-            ok = integrate(work, b, dt, x, v, ext, has_ext, grid, scratch.partners, model, spin, g)
-            spin_tick(spin, b)  # (nothing without rotation)
+                step_forces(b, v, control, mb.motors, ext, D)
+            ok = integrate(work, b, dt, x, v, ext, has_ext, grid, scratch.partners, mb, sb, g)
+            spin_tick(sb, b)  # (nothing without rotation)
             advance_shapes(model.shapes, b, dt, D)  # kinematic shapes move on (nothing if none)
             if not ok:
                 break

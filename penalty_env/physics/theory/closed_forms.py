@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -21,6 +22,8 @@ from ..._validate import non_negative as _non_negative
 from ..._validate import positive as _positive
 
 __all__ = [
+    "restitution_no_tension",
+    "zeta_for_restitution_no_tension",
     "INTEGRATORS",
     "DAMPING_MODES",
     "effective_mass",
@@ -263,6 +266,40 @@ def zeta_for_restitution(e: float, damping: str = "linear") -> float:
         else:
             hi = mid
     return 0.5 * (lo + hi)
+
+
+def restitution_no_tension(zeta: Any) -> np.ndarray:
+    """Restitution of a no-tension contact of damping ratio(s) zeta in [0, 1), in closed form
+    (elementwise; no gravity): the force ks delta + kd delta' of delta = exp(-zeta t) sin(wd t) / wd
+    (omega0 = v = 1, wd = sqrt(1 - zeta^2)) first vanishes at wd t = theta = pi - atan2(2 zeta wd,
+    1 - 2 zeta^2), where the balls part at the speed -delta'(t) they keep (the overlap then closes
+    in free flight). The same law as :func:`restitution_for_zeta` (``no_tension``), which finds
+    that instant numerically."""
+    z = np.asarray(zeta, dtype=np.float64)
+    wd = np.sqrt(1.0 - z * z)
+    theta = np.pi - np.arctan2(2.0 * z * wd, 1.0 - 2.0 * z * z)
+    return -np.exp(-z * theta / wd) * (np.cos(theta) - z / wd * np.sin(theta))
+
+
+def zeta_for_restitution_no_tension(e: Any) -> np.ndarray:
+    """The damping ratios that give restitutions e (elementwise, each in (0, 1], above the law's
+    floor at zeta 0.999) under the no-tension law: :func:`zeta_for_restitution` (``no_tension``),
+    with its bisection (60 halvings of [0, 0.999]) on the closed form
+    :func:`restitution_no_tension`; microseconds per value instead of that function's numerical
+    integration (the randomised environments derive a dashpot per world at every reset)."""
+    e = np.asarray(e, dtype=np.float64)
+    if not np.all(np.isfinite(e) & (e > 0.0) & (e <= 1.0)):
+        raise ValueError(f"restitution must be in (0, 1], got {e.tolist()!r}")
+    if np.any(restitution_no_tension(0.999) > e):
+        raise ValueError(f"restitution {e.min()} is below what the no-tension law can reach with zeta < 1")
+    lo = np.zeros_like(e)
+    hi = np.full_like(e, 0.999)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        above = restitution_no_tension(mid) > e
+        lo = np.where(above, mid, lo)
+        hi = np.where(above, hi, mid)
+    return np.where(e == 1.0, 0.0, 0.5 * (lo + hi))
 
 
 # --- stability -------------------------------------------------------------------------------

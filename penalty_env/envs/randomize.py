@@ -1,0 +1,243 @@
+"""Per-world domain randomisation of the PenaltyBalls scene (``randomize=``; the env docstring's
+"Domain randomisation" section): the draws, the physics each draw derives, and the make-time
+guard that fixes a substep every draw is stable at.
+
+A randomised scene steps a ``per_world=True`` :class:`~..physics.World`: each world's masses, radii,
+contact parameters and motor strength are its own (:mod:`..physics.per_world`), set at its reset.
+The draws come from the world's own generator, before the start's, one uniform per randomised name
+in :data:`.params.RANDOMIZE` order: ``value = low + (high - low) u``. From a draw the scene derives
+what the fixed scene derives from its keyword arguments, by the same closed forms
+(:meth:`RandomizedScene._derive`): ks from the pusher-ball impact at the motor's top speed and the
+motor's stall force under the penetration tolerance (``physics.configure``'s rule) times the
+``stiffness`` factor, kd from the restitution (the no-tension closed form), the terrain's spring
+stiffened for the heaviest resting body and its dashpot, kf from the lightest pair, the resting
+overlap and the push point from the radii.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import warnings
+from typing import Any
+
+import numpy as np
+
+from ..physics import theory
+from .params import RANDOMIZE, check_randomize_override
+
+__all__ = ["RandomizedScene", "RandomizationWarning", "MAX_SUBSTEPS"]
+
+# a range that needs more substeps per control period than this is refused (no practical step)
+MAX_SUBSTEPS = 1000
+
+
+class RandomizationWarning(UserWarning):
+    """Randomisation ranges that need a smaller substep than the fixed scene's: the scene takes more
+    substeps per control period (slower), and says which range asked for it."""
+
+
+class RandomizedScene:
+    """The scene's randomisation methods (its ``params``, ``dim``, ``n_bodies``, ``n_obstacles``,
+    ``config``, ``gravity``, ``control_period``, ``rolling``, ``world``...)."""
+
+    params: dict[str, Any]
+    dim: int
+    n_worlds: int
+    n_bodies: int
+    n_obstacles: int
+    n_balls: int
+    config: Any
+    gravity: float
+    control_period: float
+    rolling: bool
+    world: Any
+    dt: float
+    substeps: int
+    randomize: dict[str, tuple[float, float]]
+
+    # ------------------------------------------------------------------ derivation
+    def _nominal(self, name: str) -> float:
+        """A randomised name's fixed-scene value (the stiffness factor: 1)."""
+        param = RANDOMIZE[name][0]
+        return 1.0 if param is None else float(self.params[param])
+
+    def _derive(self, values: dict[str, np.ndarray], dt: float | None) -> dict[str, np.ndarray]:
+        """Each world's physics from its draws ``values`` (name -> (k,), the others at their fixed
+        values), as the fixed scene derives it (module docstring); ``dt`` the substep (kf; None:
+        not derived)."""
+        p = self.params
+        k = len(next(iter(values.values()))) if values else 1
+
+        def get(name: str) -> np.ndarray:
+            return values[name] if name in values else np.full(k, self._nominal(name))
+
+        m_p, m_b, m_o = get("pusher_mass"), get("ball_mass"), get("obstacle_mass")
+        r_p, r_b, r_o = get("pusher_radius"), get("ball_radius"), get("obstacle_radius")
+        n_obs = self.n_obstacles
+        masses = np.column_stack([m_p, m_b] + [m_o] * n_obs)
+        radii = np.column_stack([r_p, r_b] + [r_o] * n_obs)
+        v, tol, g = p["max_speed"], p["penetration_tolerance"], self.gravity
+        force = get("max_force")
+        # physics.configure's rule for the pusher-ball contact: the impact at v under delta, the
+        # motor pressing at full force under delta; then the stiffness factor
+        m_eff = m_p * m_b / (m_p + m_b)
+        delta = tol * np.minimum(r_p, r_b)
+        ks = np.maximum(m_eff * v**2 / delta**2, force / delta) * get("stiffness")
+        if "restitution" in values:
+            zeta = theory.zeta_for_restitution_no_tension(values["restitution"])
+        else:
+            zeta = np.full(k, self.config.zeta)
+        kd = 2.0 * zeta * np.sqrt(ks * m_eff)
+        ks_rest = np.max(masses * g / (tol * radii), axis=1)
+        ks_t = np.maximum(ks, ks_rest)
+        kd_t = 2.0 * zeta * np.sqrt(ks_t * m_b)
+        out = dict(masses=masses, radii=radii, ks=ks, kd=kd, ks_terrain=ks_t, kd_terrain=kd_t, zeta=zeta)
+        out["mu"], out["max_force"] = get("friction"), force
+        out["roughness"] = get("roughness") if "roughness" in values else np.full(k, float(p["roughness"]))
+        if dt is not None and not self.rolling:  # v0's kf: the lightest pair's sliding stops in one substep
+            s = np.sort(masses, axis=1)
+            out["kf"] = s[:, 0] * s[:, 1] / (s[:, 0] + s[:, 1]) / dt
+        return out
+
+    # ------------------------------------------------------------------ the make-time guard
+    def _randomized_substeps(self, probe: Any, dt_fixed: float) -> None:
+        """The substep every draw is stable at: the fixed scene's rule (``configure``'s accuracy
+        step and the guard's stability limit) and the motor's speed feedback (F / v_max dt / m <= 1)
+        over every corner of the ranges; more substeps than the fixed scene's (with a
+        :class:`RandomizationWarning` naming the ranges that need them), or a ValueError when even
+        :data:`MAX_SUBSTEPS` are not enough."""
+        dt_need, _ = self._corners_dt(probe, list(self.randomize))
+        substeps = self._substeps_for(dt_need)
+        if substeps <= self.substeps:  # the fixed scene's substep covers every corner
+            return
+        culprits = [n for n in self.randomize if self._substeps_for(self._corners_dt(probe, [n])[0]) > self.substeps]
+        named = ", ".join(f"randomize[{n!r}]={self.randomize[n]}" for n in culprits) or (
+            "the ranges together (" + ", ".join(f"{n}={r}" for n, r in self.randomize.items()) + ")"
+        )
+        if substeps > MAX_SUBSTEPS:
+            raise ValueError(
+                f"{named} would need a physics step of {dt_need:.3g} s ({substeps} substeps per control period of "
+                f"{self.control_period:g} s, more than {MAX_SUBSTEPS}) to stay stable at the ranges' corners; "
+                f"narrow the range"
+            )
+        warnings.warn(
+            f"{named} needs a physics step of at most {dt_need:.4g} s at the ranges' corners (the fixed scene's is "
+            f"{self.dt:.4g} s): the randomised scene takes {substeps} substeps per control period instead of "
+            f"{self.substeps}",
+            RandomizationWarning,
+            stacklevel=5,
+        )
+        self.substeps = substeps
+        self.dt = self.control_period / substeps
+
+    def _substeps_for(self, dt_need: float) -> int:
+        """Substeps per control period that keep the step at most ``dt_need`` (the fixed scene's rule,
+        with a relative slack of 1e-9 for the round-off of a corner that is the fixed scene itself)."""
+        dt_need *= 1.0 + 1e-9
+        substeps = max(1, math.ceil(self.control_period / dt_need))
+        if self.control_period / substeps > dt_need:  # rounding
+            substeps += 1
+        return substeps
+
+    def _corners_dt(self, probe: Any, names: list[str]) -> tuple[float, dict[str, float]]:
+        """The largest substep stable at every corner of the ranges of ``names`` (the others at
+        their fixed values), and the corner that needs the smallest."""
+        names = [n for n in names if n not in ("friction", "roughness")]  # (neither changes the step)
+        corners = list(itertools.product(*[self.randomize[n] for n in names]))
+        values = {n: np.array([c[j] for c in corners]) for j, n in enumerate(names)}
+        d = self._derive(values, None)
+        units = np.broadcast_to(self._accuracy_units(values.get("restitution")), (len(corners),))
+        p = self.params
+        best, worst = math.inf, {}
+        for t in range(len(corners)):
+            m_eff = d["masses"][t, 0] * d["masses"][t, 1] / (d["masses"][t, 0] + d["masses"][t, 1])
+            omega = math.sqrt(d["ks"][t] / m_eff)
+            dt = min(
+                units[t] / omega,  # configure's accuracy step: steps per contact fixed by zeta
+                probe.stability_limit_for(
+                    d["masses"][t], d["radii"][t], d["ks"][t], d["kd"][t], d["ks_terrain"][t], d["kd_terrain"][t]
+                ),
+                d["masses"][t, 0] * p["max_speed"] / d["max_force"][t],  # the motor's feedback
+            )
+            if dt < best:
+                best, worst = dt, {n: float(values[n][t]) for n in names}
+        return best, worst
+
+    def _accuracy_units(self, restitution: np.ndarray | None) -> np.ndarray:
+        """configure's accuracy step times omega0 (it depends on zeta only) for each restitution
+        (None: the fixed scene's), from configure itself at the fixed masses (inf where the control
+        period, not the accuracy, set the step)."""
+        from ..physics.configure import configure
+
+        if restitution is None:
+            restitution = np.array([float(self.params["restitution"])])
+        out = np.empty(len(restitution))
+        p = self.params
+        masses, radii = [p["pusher_mass"], p["ball_mass"]], [p["pusher_radius"], p["ball_radius"]]
+        for t, e in enumerate(restitution.tolist()):
+            cfg = (
+                self.config
+                if e == p["restitution"]
+                else configure(
+                    masses,
+                    radii,
+                    max_impact_speed=p["max_speed"],
+                    penetration=p["penetration_tolerance"],
+                    restitution=e,
+                    accuracy=p["restitution_accuracy"],
+                    damping="no_tension",
+                    terrain=False,
+                    integrators=("symplectic_euler",),
+                    events=False,
+                    max_dt=self.control_period,
+                    max_force=p["max_force"],
+                    energy_budget=None,
+                )
+            )
+            m_eff = theory.effective_mass(masses[0], masses[1])
+            clipped = cfg.dt >= self.control_period * (1.0 - 1e-12)
+            out[t] = math.inf if clipped else cfg.dt * math.sqrt(cfg.ks / m_eff)
+        return out
+
+    # ------------------------------------------------------------------ resets
+    def _draw(self, rngs: list, ranges: dict[str, tuple[float, float]]) -> np.ndarray:
+        """One uniform per randomised name from each world's generator (in RANDOMIZE order), as
+        values in ``ranges``: (k, names)."""
+        lo = np.array([r[0] for r in ranges.values()])
+        span = np.array([r[1] - r[0] for r in ranges.values()])
+        u = np.array([rng.random(len(ranges)) for rng in rngs]).reshape(len(rngs), len(ranges))
+        return lo + span * u
+
+    def _apply_draws(self, idx: np.ndarray, rngs: list, override: Any) -> None:
+        """Draw and set the physics of the worlds ``idx`` (before their starts are drawn)."""
+        ranges = check_randomize_override(override, self.randomize)
+        drawn = self._draw(rngs, ranges)
+        self.drawn[idx] = drawn
+        values = {n: drawn[:, j] for j, n in enumerate(ranges)}
+        d = self._derive(values, self.dt)
+        kw: dict[str, Any] = dict(
+            masses=d["masses"],
+            radii=d["radii"],
+            ks=d["ks"],
+            kd=d["kd"],
+            ks_terrain=d["ks_terrain"],
+            kd_terrain=d["kd_terrain"],
+            mu=d["mu"],
+            max_force=d["max_force"][:, None],
+        )
+        if "kf" in d:
+            kw["kf"] = d["kf"]
+        # (every value is covered by the make-time guard over the ranges' corners)
+        self.world.set_parameters(idx, guard=False, **kw)
+        nb = self.n_bodies
+        rest_depth = d["masses"] * self.gravity / d["ks_terrain"][:, None]
+        rest = d["radii"][:, :nb] - rest_depth[:, :nb]
+        self._rest_radii[idx] = np.concatenate([rest, rest[:, 1:2]], axis=1)
+        self._radii_rows[idx] = d["radii"]
+        self._push_offset[idx] = d["radii"][:, 0] + d["radii"][:, 1]
+        self._roughness_rows[idx] = d["roughness"]
+
+    def randomization(self, b: int) -> dict[str, float]:
+        """World b's drawn values at its last reset (name -> float, in draw order)."""
+        return dict(zip(self.randomize, self.drawn[b].tolist()))

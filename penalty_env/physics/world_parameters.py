@@ -1,0 +1,241 @@
+"""The per-world parameters of a :class:`~.world.World` made with ``per_world=True`` (domain
+randomisation): the model's per-world arrays, :meth:`ParameterAccess.set_parameters` (checked, and
+held to the stability guard world by world) and :meth:`ParameterAccess.parameters`."""
+
+from __future__ import annotations
+
+import copy
+import math
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as V
+from . import theory
+from .model import Model, inertia_factor
+
+__all__ = ["ParameterAccess", "per_world_model"]
+
+_SCALARS = ("ks", "kd", "ks_terrain", "kd_terrain", "mu", "kf")
+
+
+def per_world_model(model: Model, B: int) -> Model:
+    """``model`` with its parameters per world (:mod:`.per_world`): every world's as given."""
+    m = model.motors
+    return model._replace(
+        radii=np.tile(model.radii, (B, 1)),
+        inv_mass=np.tile(model.inv_mass, (B, 1)),
+        motors=m._replace(max_force=np.tile(m.max_force, (B, 1))),
+        **{name: np.full(B, float(getattr(model, name))) for name in _SCALARS},
+    )
+
+
+class ParameterAccess:
+    """A World's per-world parameter methods (its ``per_world`` flag, ``_model``, ``_spin``...)."""
+
+    per_world: bool
+    allow_unstable: bool
+    use_grid: bool
+    rotation: bool
+    integrator: str
+    dt: float
+    gravity: tuple
+    masses: np.ndarray
+    radii: np.ndarray
+    ks: float
+    kd: float
+    ks_terrain: float
+    kd_terrain: float
+    mu: float
+    kf: float
+    kr: float
+    _kf_default: bool
+    _kr_default: bool
+    _lead: int
+    _model: Model
+    _spin: Any
+    _world_index: Any
+    _all_worlds: np.ndarray
+
+    def parameters(self, world: int = 0) -> dict[str, Any]:
+        """World ``world``'s physics parameters: ``masses``, ``radii`` (``(n,)`` arrays), ``ks, kd,
+        ks_terrain, kd_terrain, mu, kf`` and the motors' ``max_force`` (``(m,)``); with rotation also
+        ``kr``. The same for every world unless the World was made with ``per_world=True``."""
+        b = int(self._world_index([world])[0])
+        m = self._model
+        pw = self.per_world
+        out: dict[str, Any] = {
+            "masses": 1.0 / (m.inv_mass[b] if pw else m.inv_mass),
+            "radii": (m.radii[b] if pw else m.radii).copy(),
+        }
+        for name in _SCALARS:
+            value = getattr(m, name)
+            out[name] = float(value[b] if pw else value)
+        out["max_force"] = (m.motors.max_force[b] if pw else m.motors.max_force).copy()
+        if self._spin is not None and self.rotation:
+            kr = self._spin.kr
+            out["kr"] = float(kr[b] if pw else kr)
+        return out
+
+    def set_parameters(
+        self,
+        worlds: Any = None,
+        *,
+        masses: Any = None,
+        radii: Any = None,
+        ks: Any = None,
+        kd: Any = None,
+        ks_terrain: Any = None,
+        kd_terrain: Any = None,
+        mu: Any = None,
+        kf: Any = None,
+        max_force: Any = None,
+        guard: bool = True,
+    ) -> None:
+        """Set the physics parameters of ``worlds`` (all when None) of a ``per_world=True`` World.
+
+        Each argument left None keeps its value. ``masses``, ``radii``: ``(n,)`` (every listed world)
+        or ``(k, n)`` (one row per listed world); ``ks, kd, ks_terrain, kd_terrain, mu, kf``: a float
+        or ``(k,)``; ``max_force``: ``(m,)`` or ``(k, m)``. What the World derives from them follows:
+        a default ``kf`` (the lightest contact's m_eff / dt) and, with rotation, the inertia and a
+        default ``kr``. The state is left as it is: a new radius or mass applies from the next step.
+
+        ``guard``: each listed world is held to the guards of the constructor (dt within the
+        stability limit of its stiffest contact, kf and kr within their explicit limits), unless the
+        World was made with ``allow_unstable=True``; ``guard=False`` skips that for a caller that
+        checked every value against the guard beforehand (a randomised environment checks the
+        corners of its ranges once, when it is made).
+
+        Raises:
+            ValueError: the World is not ``per_world``; a value that is not finite, not positive
+                (``kd``, ``kd_terrain``, ``mu``: negative), of the wrong shape, a radius larger than
+                the grid's cells hold, or above the guard (the message names the world and the step
+                it needs).
+        """
+        if not self.per_world:
+            raise ValueError("set_parameters needs a World made with per_world=True (its parameters are per world)")
+        idx = self._all_worlds if worlds is None else self._world_index(worlds)
+        k = len(idx)
+        model, n = self._model, self._model.radii.shape[1]
+        q = model.motors.ball.shape[0]
+        new: dict[str, np.ndarray] = {}
+        if masses is not None:
+            new["inv_mass"] = 1.0 / _rows("masses", masses, k, n, positive=True)
+        if radii is not None:
+            r = _rows("radii", radii, k, n, positive=True)
+            if self.use_grid:
+                cell = model.cell_size
+                big = r[:, self._lead :].max() if n > self._lead else 0.0
+                if 2.0 * big > cell:
+                    raise ValueError(
+                        f"radii: a radius of {big:g} does not fit the grid's cells of {cell:g} (made for the "
+                        f"constructor's largest radius); give the World its largest radius at construction"
+                    )
+            new["radii"] = r
+        given = dict(ks=ks, kd=kd, ks_terrain=ks_terrain, kd_terrain=kd_terrain, mu=mu, kf=kf)
+        for name, value in given.items():
+            if value is not None:
+                new[name] = _column(name, value, k, positive=name in ("ks", "kf"))
+        if max_force is not None:
+            if q == 0:
+                raise ValueError("max_force: this World has no motors")
+            new["max_force"] = _rows("max_force", max_force, k, q, positive=True)
+        cur = {name: (model.motors.max_force if name == "max_force" else getattr(model, name))[idx] for name in new}
+        cur.update({name: getattr(model, name)[idx] for name in ("inv_mass", "radii", "kf") if name not in cur})
+        merged = dict(cur, **new)
+        masses_now = 1.0 / merged["inv_mass"]
+        if self._kf_default and kf is None:
+            merged["kf"] = np.array([self._tangential_mass_of(mw) for mw in masses_now]) / self.dt
+        spin = self._spin
+        if spin is not None and self.rotation:
+            inertia = inertia_factor(len(self.gravity)) * masses_now * merged["radii"] ** 2
+            merged["inv_inertia"] = 1.0 / inertia
+            merged["kr"] = (
+                spin.kr[idx] if not self._kr_default else np.array([_lightest(row) for row in inertia]) / self.dt
+            )
+        if guard and not self.allow_unstable:
+            self._guard_worlds(idx, merged)
+        for name, value in merged.items():
+            if name == "max_force":
+                model.motors.max_force[idx] = value
+            elif name in ("inv_inertia", "kr"):
+                getattr(spin, name)[idx] = value
+            else:
+                getattr(model, name)[idx] = value
+
+    def stability_limit_for(
+        self, masses: Any, radii: Any, ks: float, kd: float, ks_terrain: float, kd_terrain: float
+    ) -> float:
+        """The guard's stability limit (:meth:`stability_limit`) of this World's scene with these
+        masses, radii and contact parameters (the World is left as it is): for a caller that checks
+        parameters before it sets them (a randomised environment, its ranges' corners)."""
+        view = copy.copy(self)
+        view.masses, view.radii = np.asarray(masses, dtype=np.float64), np.asarray(radii, dtype=np.float64)
+        view.ks, view.kd, view.ks_terrain, view.kd_terrain = float(ks), float(kd), float(ks_terrain), float(kd_terrain)
+        return float(view.stability_limit())  # type: ignore[attr-defined]
+
+    def _tangential_mass_of(self, masses: np.ndarray) -> float:
+        view = copy.copy(self)
+        view.masses = masses
+        return float(view._lightest_tangential_mass())  # type: ignore[attr-defined]
+
+    def _guard_worlds(self, idx: np.ndarray, values: dict[str, np.ndarray]) -> None:
+        """Refuse values for which some world's step is above its stability limit, or its kf above
+        the explicit friction limit."""
+        model = self._model
+        for t, b in enumerate(idx.tolist()):
+            view = copy.copy(self)
+            view.masses = 1.0 / values["inv_mass"][t]
+            view.radii = values["radii"][t]
+            for name in ("ks", "kd", "ks_terrain", "kd_terrain"):
+                setattr(view, name, float((values[name] if name in values else getattr(model, name)[idx])[t]))
+            limit = view.stability_limit()  # type: ignore[attr-defined]
+            if self.dt > limit:
+                view.dt_max = limit
+                raise ValueError(f"set_parameters, world {b}: {view._stability_message()}")  # type: ignore[attr-defined]
+            kf_max = view._lightest_tangential_mass() / self.dt  # type: ignore[attr-defined]
+            mu = float((values["mu"] if "mu" in values else model.mu[idx])[t])
+            if mu > 0.0 and values["kf"][t] > kf_max * (1.0 + 1e-12):
+                raise ValueError(
+                    f"set_parameters, world {b}: kf={values['kf'][t]:g} is above the explicit friction limit "
+                    f"m_eff/dt = {kf_max:g} (dt={self.dt:g}): sliding would overshoot and gain energy"
+                )
+
+
+def _lightest(inertia: np.ndarray) -> float:
+    """The smallest effective moment of inertia of a contact (as the guard's)."""
+    s = np.sort(inertia)
+    pair = theory.effective_mass(s[0], s[1]) if s.size >= 2 else math.inf
+    return float(min(pair, s[0]))
+
+
+def _rows(name: str, value: Any, k: int, n: int, positive: bool) -> np.ndarray:
+    """``value`` as (k, n) rows: given as (n,) for every world or (k, n)."""
+    a = V.real_array(name, value)
+    if a.shape == (n,):
+        a = np.broadcast_to(a, (k, n))
+    if a.shape != (k, n):
+        raise ValueError(
+            f"{name} must have shape ({n},) (every listed world) or ({k}, {n}) (one row each), got {a.shape}"
+        )
+    _check_values(name, a, positive)
+    return np.array(a, dtype=np.float64)
+
+
+def _column(name: str, value: Any, k: int, positive: bool) -> np.ndarray:
+    """``value`` as (k,): a float for every listed world, or one per world."""
+    a = V.real_array(name, value)
+    if a.shape == ():
+        a = np.full(k, float(a))
+    if a.shape != (k,):
+        raise ValueError(f"{name} must be a float or have shape ({k},) (one per listed world), got {a.shape}")
+    _check_values(name, a, positive)
+    return np.array(a, dtype=np.float64)
+
+
+def _check_values(name: str, a: np.ndarray, positive: bool) -> None:
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite, got {a.tolist()}")
+    bad = a <= 0.0 if positive else a < 0.0
+    if np.any(bad):
+        raise ValueError(f"{name} must be {'> 0' if positive else '>= 0'}, got {float(a[bad][0])!r}")
