@@ -66,7 +66,7 @@ class TaskParams(NamedTuple):
     w_reach: float  # reward per metre the pusher gets closer to the push point
     success_bonus: float
     goal_tolerance: float  # success radius, m
-    push_offset: float  # pusher radius + ball radius: the push point's distance behind the ball (a
+    push_offset: float | np.ndarray  # pusher radius + ball radius: the push point's distance behind the ball (a
     # randomised scene: (B,), each world's)
     substeps: int  # physics steps per env step
     goal_axes: int  # the axes over which the goal is reached: all d, or the d - 1 horizontal (sand)

@@ -55,6 +55,11 @@ class RandomizedScene:
     dt: float
     substeps: int
     randomize: dict[str, tuple[float, float]]
+    drawn: np.ndarray  # (B, names): each world's draws at its last reset
+    _rest_radii: np.ndarray
+    _radii_rows: np.ndarray
+    _push_offset: np.ndarray
+    _roughness_rows: np.ndarray
 
     # ------------------------------------------------------------------ derivation
     def _nominal(self, name: str) -> float:

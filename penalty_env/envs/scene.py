@@ -431,18 +431,19 @@ class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene):
         idx = np.asarray(worlds, dtype=np.int64)
         # horizontal positions (k, n + 1, d - 1): the balls, then the goal; lifted onto the
         # terrain together below
-        if any(rng is None for rng in rngs):
+        gens = [rng for rng in rngs if rng is not None]
+        if len(gens) != len(rngs):
             raise ValueError("every world reset needs its random generator (reset the env, with or without a seed)")
         if self.randomize:  # each world's physics, drawn before its start
-            self._apply_draws(idx, list(rngs), randomize)
-            flat = np.array([self._sample(rng, int(b)) for b, rng in zip(idx, rngs)])
+            self._apply_draws(idx, gens, randomize)
+            flat = np.array([self._sample(rng, int(b)) for b, rng in zip(idx, gens)])
         else:
             check_randomize_override(randomize, self.randomize)  # (refuses ranges: none at make)
-            flat = np.array([self._sample(rng) for rng in rngs if rng is not None])
+            flat = np.array([self._sample(rng) for rng in gens])
         flat = flat.reshape(idx.size, self.n_bodies + 1, -1)
         if self.terrain_kind == "bumpy":
             rough = [self.roughness] * idx.size if not self.randomize else self._roughness_rows[idx].tolist()
-            heights = np.array([self._bump_heights(rng, h) for rng, h in zip(rngs, rough)])
+            heights = np.array([self._bump_heights(rng, h) for rng, h in zip(gens, rough)])
             self.world.set_heights(0, heights, worlds=idx)
             self.terrain_version[idx] += 1
         pos = self._on_terrain(flat, idx)

@@ -23,13 +23,13 @@ from .geometry.shapes import Shape
 from .geometry.user import SDF
 from .guard import STABILITY_SAFETY, EnergyDriftWarning, StabilityGuard, StartOverlapWarning
 from .model import TANGENTIAL, Model, Spin, State, new_control, new_spin
-from .world_parameters import ParameterAccess, per_world_model
 from .stepping.common import STATUS_CG, STATUS_NONFINITE
 from .stepping.integrators import INTEGRATORS, allocate_work
 from .stepping.lanes import LANES_MAX_BALLS, LANES_MIN_WORLDS
 from .stepping.large import LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN
 from .stepping.runner import PATHS, Runner
 from .world_checks import Motor, ball_arrays, gravity_vector, motor_arrays, state_arrays, terrain_tuple
+from .world_parameters import ParameterAccess, per_world_model
 from .world_state import StateAccess
 from .world_terrain import TerrainAccess
 
@@ -336,7 +336,8 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
             dt=self.dt,
         )
         if self.per_world:  # per world: each world's inertia and rolling-resistance slope
-            spin = spin._replace(inv_inertia=np.tile(spin.inv_inertia, (B, 1)), kr=np.full(B, spin.kr))
+            kr: Any = np.full(B, spin.kr)
+            spin = spin._replace(inv_inertia=np.tile(spin.inv_inertia, (B, 1)), kr=kr)
         return spin
 
     def _build(self, x: np.ndarray, v: np.ndarray, lead: int) -> None:

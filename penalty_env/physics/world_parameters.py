@@ -22,12 +22,13 @@ _SCALARS = ("ks", "kd", "ks_terrain", "kd_terrain", "mu", "kf")
 def per_world_model(model: Model, B: int) -> Model:
     """``model`` with its parameters per world (:mod:`.per_world`): every world's as given."""
     m = model.motors
-    return model._replace(
+    fields: dict[str, Any] = {name: np.full(B, float(getattr(model, name))) for name in _SCALARS}
+    fields.update(
         radii=np.tile(model.radii, (B, 1)),
         inv_mass=np.tile(model.inv_mass, (B, 1)),
         motors=m._replace(max_force=np.tile(m.max_force, (B, 1))),
-        **{name: np.full(B, float(getattr(model, name))) for name in _SCALARS},
     )
+    return model._replace(**fields)
 
 
 class ParameterAccess:
@@ -188,13 +189,14 @@ class ParameterAccess:
             view.masses = 1.0 / values["inv_mass"][t]
             view.radii = values["radii"][t]
             for name in ("ks", "kd", "ks_terrain", "kd_terrain"):
-                setattr(view, name, float((values[name] if name in values else getattr(model, name)[idx])[t]))
+                column = values[name] if name in values else np.asarray(getattr(model, name))[idx]
+                setattr(view, name, float(column[t]))
             limit = view.stability_limit()  # type: ignore[attr-defined]
             if self.dt > limit:
-                view.dt_max = limit
+                setattr(view, "dt_max", limit)
                 raise ValueError(f"set_parameters, world {b}: {view._stability_message()}")  # type: ignore[attr-defined]
             kf_max = view._lightest_tangential_mass() / self.dt  # type: ignore[attr-defined]
-            mu = float((values["mu"] if "mu" in values else model.mu[idx])[t])
+            mu = float((values["mu"] if "mu" in values else np.asarray(model.mu)[idx])[t])
             if mu > 0.0 and values["kf"][t] > kf_max * (1.0 + 1e-12):
                 raise ValueError(
                     f"set_parameters, world {b}: kf={values['kf'][t]:g} is above the explicit friction limit "
