@@ -23,7 +23,9 @@ from typing import Any
 
 import numpy as np
 
+from .._jit import entry_point, njit
 from ..physics import theory
+from ..physics.model import inertia_factor
 from .params import RANDOMIZE, check_randomize_override
 
 __all__ = ["RandomizedScene", "RandomizationWarning", "MAX_SUBSTEPS"]
@@ -90,7 +92,7 @@ class RandomizedScene:
         delta = tol * np.minimum(r_p, r_b)
         ks = np.maximum(m_eff * v**2 / delta**2, force / delta) * get("stiffness")
         if "restitution" in values:
-            zeta = theory.zeta_for_restitution_no_tension(values["restitution"])
+            zeta = self._zeta(values["restitution"])
         else:
             zeta = np.full(k, self.config.zeta)
         kd = 2.0 * zeta * np.sqrt(ks * m_eff)
@@ -104,6 +106,23 @@ class RandomizedScene:
             s = np.sort(masses, axis=1)
             out["kf"] = s[:, 0] * s[:, 1] / (s[:, 0] + s[:, 1]) / dt
         return out
+
+    def _zeta(self, e: np.ndarray) -> np.ndarray:
+        """The no-tension damping ratio of restitutions ``e`` (within the make-time range):
+        :func:`..physics.theory.zeta_for_restitution_no_tension` tabulated once over the range
+        (2,049 nodes), interpolated, then one Newton step on the closed form (central difference):
+        the same zeta to about 1e-15, at a few numpy calls per reset instead of 60 halvings."""
+        table = self.__dict__.get("_zeta_table")
+        if table is None:
+            lo, hi = self.randomize["restitution"]
+            grid = np.linspace(lo, hi, 2049)
+            table = self._zeta_table = (grid, theory.zeta_for_restitution_no_tension(grid))
+        if table[0][0] == table[0][-1]:  # a single value
+            return np.full(len(e), table[1][0])
+        z = np.interp(e, table[0], table[1])
+        h = 1e-7
+        slope = (theory.restitution_no_tension(z + h) - theory.restitution_no_tension(z - h)) / (2.0 * h)
+        return z - (theory.restitution_no_tension(z) - e) / slope
 
     # ------------------------------------------------------------------ the make-time guard
     def _randomized_substeps(self, probe: Any, dt_fixed: float) -> None:
@@ -215,14 +234,58 @@ class RandomizedScene:
         return lo + span * u
 
     def _apply_draws(self, idx: np.ndarray, rngs: list, override: Any) -> None:
-        """Draw and set the physics of the worlds ``idx`` (before their starts are drawn)."""
+        """Draw and set the physics of the worlds ``idx`` (before their starts are drawn), in one
+        Numba call (:func:`derive_worlds`: a reset is on the env's hot path, and numpy's per-call
+        cost over a few worlds would be most of it)."""
         ranges = check_randomize_override(override, self.randomize)
         drawn = self._draw(rngs, ranges)
         self.drawn[idx] = drawn
+        args = (idx, drawn) + self._derive_args()
+        kernel = self.__dict__.get("_derive_kernel")
+        if kernel is None:
+            kernel = self._derive_kernel = entry_point(derive_worlds, args)
+        kernel(*args)
+
+    def _derive_args(self) -> tuple:
+        """:func:`derive_worlds`' arguments after ``idx`` and ``drawn`` (made once)."""
+        args = self.__dict__.get("_derive_tail")
+        if args is not None:
+            return args
+        p = self.params
+        cols = np.array([list(self.randomize).index(n) if n in self.randomize else -1 for n in RANDOMIZE])
+        nominal = np.array([self._nominal(n) for n in RANDOMIZE])
+        e0 = float(p["restitution"])
+        table = (
+            (np.array([e0, e0 + 1.0]), np.array([self.config.zeta] * 2))
+            if "restitution" not in self.randomize
+            else self._zeta_grid()
+        )
+        model = self.world.model
+        spin = self.world._spin
+        c = inertia_factor(self.dim) if self.rolling else 0.0
+        consts = np.array([p["max_speed"], p["penetration_tolerance"], self.gravity, self.dt, self.config.zeta, c])
+        inv_inertia = spin.inv_inertia if self.rolling else model.inv_mass
+        kr = spin.kr if self.rolling else model.ks
+        args = (cols, nominal, np.empty(len(RANDOMIZE)), consts, table[0], table[1], self.n_obstacles, self.rolling)
+        args += (model.radii, model.inv_mass, model.ks, model.kd, model.ks_terrain, model.kd_terrain, model.mu)
+        args += (model.kf, model.motors.max_force, inv_inertia, kr)
+        args += (self._rest_radii, self._push_offset, self._roughness_rows)
+        self._derive_tail = args
+        return args
+
+    def _zeta_grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """The no-tension zeta over the make-time restitution range: 2,049 nodes."""
+        lo, hi = self.randomize["restitution"]
+        grid = np.linspace(lo, hi, 2049) if hi > lo else np.array([lo, lo + 1.0])
+        return grid, theory.zeta_for_restitution_no_tension(np.minimum(grid, 1.0))
+
+    def _apply_draws_numpy(self, idx: np.ndarray, drawn: np.ndarray, ranges: dict) -> None:
+        """:meth:`_apply_draws`' derivation in numpy (:meth:`_derive`): what the tests check the
+        kernel against."""
         values = {n: drawn[:, j] for j, n in enumerate(ranges)}
         d = self._derive(values, self.dt)
-        kw: dict[str, Any] = dict(
-            masses=d["masses"],
+        new: dict[str, np.ndarray] = dict(
+            inv_mass=1.0 / d["masses"],
             radii=d["radii"],
             ks=d["ks"],
             kd=d["kd"],
@@ -232,9 +295,10 @@ class RandomizedScene:
             max_force=d["max_force"][:, None],
         )
         if "kf" in d:
-            kw["kf"] = d["kf"]
-        # (every value is covered by the make-time guard over the ranges' corners)
-        self.world.set_parameters(idx, guard=False, **kw)
+            new["kf"] = d["kf"]
+        # made here, from ranges checked at make (finite, positive), and every value covered by the
+        # make-time guard over the ranges' corners: World.set_parameters without its checks
+        self.world._store_parameters(idx, new)
         nb = self.n_bodies
         rest_depth = d["masses"] * self.gravity / d["ks_terrain"][:, None]
         rest = d["radii"][:, :nb] - rest_depth[:, :nb]
@@ -246,3 +310,109 @@ class RandomizedScene:
     def randomization(self, b: int) -> dict[str, float]:
         """World b's drawn values at its last reset (name -> float, in draw order)."""
         return dict(zip(self.randomize, self.drawn[b].tolist()))
+
+
+@njit
+def _restitution(z):
+    """:func:`..physics.theory.restitution_no_tension` of one zeta."""
+    wd = math.sqrt(1.0 - z * z)
+    theta = math.pi - math.atan2(2.0 * z * wd, 1.0 - 2.0 * z * z)
+    return -math.exp(-z * theta / wd) * (math.cos(theta) - z / wd * math.sin(theta))
+
+
+@njit
+def _zeta_of(e, grid, zetas):
+    """The no-tension zeta of restitution e: linear interpolation in the table (grid ascending,
+    e within it), then one Newton step on the closed form (central difference)."""
+    if grid[0] == grid[-1] or e <= grid[0]:
+        z = zetas[0]
+    elif e >= grid[-1]:
+        z = zetas[-1]
+    else:
+        lo, hi = 0, grid.shape[0] - 1
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if grid[mid] <= e:
+                lo = mid
+            else:
+                hi = mid
+        z = zetas[lo] + (e - grid[lo]) * (zetas[hi] - zetas[lo]) / (grid[hi] - grid[lo])
+    if zetas[0] == zetas[-1]:
+        return z
+    h = 1e-7
+    slope = (_restitution(z + h) - _restitution(z - h)) / (2.0 * h)
+    return z - (_restitution(z) - e) / slope
+
+
+@njit
+def _body(i, a, b, c):
+    """Body i's value of three: the pusher's (0), the ball's (1), an obstacle's (2..)."""
+    return a if i == 0 else (b if i == 1 else c)
+
+
+@njit(entry=True, nogil=True)
+def derive_worlds(
+    idx, drawn, cols, nominal, val, consts, grid, zetas, n_obs, rolling,
+    radii, inv_mass, ks, kd, ks_t, kd_t, mu, kf, max_force, inv_inertia, kr, rest, push, rough,
+):  # fmt: skip
+    """Each listed world's physics from its draws (``drawn[t]`` for world ``idx[t]``, columns
+    ``cols`` per :data:`.params.RANDOMIZE` name, -1: its ``nominal`` value; ``val`` a scratch of
+    their size), written into the World's per-world arrays and the scene's (rest radii, push offset,
+    roughness): the rule of :meth:`RandomizedScene._derive`, world by world (and, with ``rolling``,
+    the World's default kf, inertia and kr, as ``World.set_parameters`` derives them). ``consts``:
+    max speed, penetration tolerance, gravity, dt, the fixed scene's zeta, I / (m r^2)."""
+    v, tol, g, dt, zeta0, c = consts[0], consts[1], consts[2], consts[3], consts[4], consts[5]
+    nb = 2 + n_obs
+    for t in range(idx.shape[0]):
+        b = idx[t]
+        for q in range(nominal.shape[0]):
+            val[q] = drawn[t, cols[q]] if cols[q] >= 0 else nominal[q]
+        # RANDOMIZE order: pusher_mass, ball_mass, obstacle_mass, pusher_radius, ball_radius,
+        # obstacle_radius, friction, restitution, stiffness, max_force, roughness
+        m_p, m_b, m_o, r_p, r_b, r_o = val[0], val[1], val[2], val[3], val[4], val[5]
+        m_eff = m_p * m_b / (m_p + m_b)
+        delta = tol * min(r_p, r_b)
+        k = max(m_eff * v**2 / delta**2, val[9] / delta) * val[8]
+        zeta = _zeta_of(val[7], grid, zetas) if cols[7] >= 0 else zeta0
+        rest_k = 0.0
+        s0, s1 = math.inf, math.inf  # the two lightest bodies
+        for i in range(nb):
+            m, r = _body(i, m_p, m_b, m_o), _body(i, r_p, r_b, r_o)
+            radii[b, i] = r
+            inv_mass[b, i] = 1.0 / m
+            rest_k = max(rest_k, m * g / (tol * r))
+            if m < s0:
+                s0, s1 = m, s0
+            elif m < s1:
+                s1 = m
+        kt = max(k, rest_k)
+        ks[b] = k
+        kd[b] = 2.0 * zeta * math.sqrt(k * m_eff)
+        ks_t[b] = kt
+        kd_t[b] = 2.0 * zeta * math.sqrt(kt * m_b)
+        mu[b] = val[6]
+        max_force[b, 0] = val[9]
+        rough[b] = val[10]
+        push[b] = r_p + r_b
+        for i in range(nb):
+            rest[b, i] = radii[b, i] - _body(i, m_p, m_b, m_o) * g / kt
+        rest[b, nb] = rest[b, 1]
+        if not rolling:  # v0's kf: the lightest pair's sliding stops in one substep
+            kf[b] = s0 * s1 / (s0 + s1) / dt
+            continue
+        # the World's defaults from its stored 1 / m: the tangential m_eff, the lightest inertia
+        w0, w1, i0, i1 = math.inf, math.inf, math.inf, math.inf
+        for i in range(nb):
+            m = 1.0 / inv_mass[b, i]
+            inertia = c * m * radii[b, i] ** 2
+            inv_inertia[b, i] = 1.0 / inertia
+            if m < w0:
+                w0, w1 = m, w0
+            elif m < w1:
+                w1 = m
+            if inertia < i0:
+                i0, i1 = inertia, i0
+            elif inertia < i1:
+                i1 = inertia
+        kf[b] = min(w0 * w1 / (w0 + w1), w0) * c / (1.0 + c) / dt
+        kr[b] = min(i0 * i1 / (i0 + i1), i0) / dt

@@ -273,7 +273,7 @@ class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene):
         if self.randomize:
             B = self.n_worlds
             self._rest_radii = np.tile(self._rest_radii, (B, 1))
-            self._radii_rows = np.tile(self.radii, (B, 1))
+            self._radii_rows = self.world.model.radii  # (B, n): each world's (the World's own array)
             self._roughness_rows = np.full(B, float(self.roughness))
             self.drawn = np.tile([self._nominal(n) for n in self.randomize], (B, 1))
 

@@ -203,10 +203,12 @@ class PenaltyBallsVectorEnv(VectorEnv):
         infos["is_success"] = success
         infos["_is_success"] = masks[-1]
         if self.scene.randomize:  # each world's draws, nested as Gymnasium batches a dict-valued info
+            drawn = self.scene.drawn.T.copy()  # (names, N): one fresh block, its rows the values
+            if mask is not self._ones:
+                drawn[:, ~mask] = 0.0
             sub: dict[str, Any] = {}
             for j, name in enumerate(self.scene.randomize):
-                sub[name] = np.where(mask, self.scene.drawn[:, j], 0.0)
-                sub["_" + name] = masks[-1]
+                sub[name], sub["_" + name] = drawn[j], masks[-1]
             infos["randomization"], infos["_randomization"] = sub, masks[-1]
         return infos
 

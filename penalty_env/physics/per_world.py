@@ -41,6 +41,7 @@ __all__ = [
     "lane_law",
     "lane_rows",
     "of_world",
+    "friction_on",
 ]
 
 # the Model's fields that a per-world model holds per world (a float or (n,) array become (B,) or (B, n))
@@ -231,3 +232,18 @@ def _of_world(x, b):
     if isinstance(x, types.Array):
         return lambda x, b: x[b]
     return lambda x, b: x
+
+
+def friction_on(mu):
+    """Whether to compute friction in a lanes loop: ``mu > 0`` for a fixed scene's float (the same
+    in every lane: LLVM unswitches the loop); always for a per-world lane row (a lane whose mu is 0
+    gets a zero friction force, min(kf |u|, 0) / |u| = 0), so that the loop has no per-lane branch
+    and stays vectorised (jitted code only)."""
+    raise NotImplementedError("friction_on is called from jitted code")
+
+
+@overload_kernel(friction_on, hot=True)
+def _friction_on(mu):
+    if isinstance(mu, types.Array):
+        return lambda mu: True
+    return lambda mu: mu > 0.0

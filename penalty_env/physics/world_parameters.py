@@ -5,13 +5,11 @@ held to the stability guard world by world) and :meth:`ParameterAccess.parameter
 from __future__ import annotations
 
 import copy
-import math
 from typing import Any
 
 import numpy as np
 
 from .. import _validate as V
-from . import theory
 from .model import Model, inertia_factor
 
 __all__ = ["ParameterAccess", "per_world_model"]
@@ -141,19 +139,31 @@ class ParameterAccess:
             if q == 0:
                 raise ValueError("max_force: this World has no motors")
             new["max_force"] = _rows("max_force", max_force, k, q, positive=True)
+        self._store_parameters(idx, new, guard)
+
+    def _store_parameters(self, idx: np.ndarray, new: dict[str, np.ndarray], guard: bool = False) -> None:
+        """:meth:`set_parameters` after its argument checks: ``new`` maps model fields (``inv_mass``,
+        ``radii``, the contact scalars, ``max_force``) to float64 arrays of the listed worlds, (k, n),
+        (k,) and (k, m), already finite and positive; derives what follows and writes them. For a
+        caller that made its values itself (the randomised environments' resets, which skip the
+        checks' cost: a reset is on the env's hot path)."""
+        model = self._model
+        kf_given = "kf" in new
         cur = {name: (model.motors.max_force if name == "max_force" else getattr(model, name))[idx] for name in new}
         cur.update({name: getattr(model, name)[idx] for name in ("inv_mass", "radii", "kf") if name not in cur})
         merged = dict(cur, **new)
         masses_now = 1.0 / merged["inv_mass"]
-        if self._kf_default and kf is None:
-            merged["kf"] = np.array([self._tangential_mass_of(mw) for mw in masses_now]) / self.dt
+        if self._kf_default and not kf_given:  # (the constructor's default, world by world)
+            light = _lightest(masses_now)
+            if self.rotation:
+                c = inertia_factor(len(self.gravity))
+                light = light * c / (1.0 + c)
+            merged["kf"] = light / self.dt
         spin = self._spin
         if spin is not None and self.rotation:
             inertia = inertia_factor(len(self.gravity)) * masses_now * merged["radii"] ** 2
             merged["inv_inertia"] = 1.0 / inertia
-            merged["kr"] = (
-                spin.kr[idx] if not self._kr_default else np.array([_lightest(row) for row in inertia]) / self.dt
-            )
+            merged["kr"] = spin.kr[idx] if not self._kr_default else _lightest(inertia) / self.dt
         if guard and not self.allow_unstable:
             self._guard_worlds(idx, merged)
         for name, value in merged.items():
@@ -175,11 +185,6 @@ class ParameterAccess:
         view.ks, view.kd, view.ks_terrain, view.kd_terrain = float(ks), float(kd), float(ks_terrain), float(kd_terrain)
         return float(view.stability_limit())  # type: ignore[attr-defined]
 
-    def _tangential_mass_of(self, masses: np.ndarray) -> float:
-        view = copy.copy(self)
-        view.masses = masses
-        return float(view._lightest_tangential_mass())  # type: ignore[attr-defined]
-
     def _guard_worlds(self, idx: np.ndarray, values: dict[str, np.ndarray]) -> None:
         """Refuse values for which some world's step is above its stability limit, or its kf above
         the explicit friction limit."""
@@ -193,7 +198,7 @@ class ParameterAccess:
                 setattr(view, name, float(column[t]))
             limit = view.stability_limit()  # type: ignore[attr-defined]
             if self.dt > limit:
-                setattr(view, "dt_max", limit)
+                view.dt_max = limit  # type: ignore[attr-defined]
                 raise ValueError(f"set_parameters, world {b}: {view._stability_message()}")  # type: ignore[attr-defined]
             kf_max = view._lightest_tangential_mass() / self.dt  # type: ignore[attr-defined]
             mu = float((values["mu"] if "mu" in values else np.asarray(model.mu)[idx])[t])
@@ -204,11 +209,13 @@ class ParameterAccess:
                 )
 
 
-def _lightest(inertia: np.ndarray) -> float:
-    """The smallest effective moment of inertia of a contact (as the guard's)."""
-    s = np.sort(inertia)
-    pair = theory.effective_mass(s[0], s[1]) if s.size >= 2 else math.inf
-    return float(min(pair, s[0]))
+def _lightest(rows: np.ndarray) -> np.ndarray:
+    """Per row of masses (or moments of inertia): the smallest effective mass of a contact, a pair's
+    m_i m_j / (m_i + m_j) or a ball's own against the terrain (the guard's, row by row)."""
+    s = np.sort(rows, axis=1)
+    if s.shape[1] < 2:
+        return s[:, 0].copy()
+    return np.minimum(s[:, 0] * s[:, 1] / (s[:, 0] + s[:, 1]), s[:, 0])
 
 
 def _rows(name: str, value: Any, k: int, n: int, positive: bool) -> np.ndarray:

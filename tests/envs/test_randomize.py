@@ -103,6 +103,29 @@ def test_draws_set_the_worlds_physics_as_the_fixed_scene_derives_it():
     assert rand.task.push_offset[1] == pytest.approx(fixed.task.push_offset, rel=1e-15)
 
 
+@pytest.mark.parametrize("physics", ["sliding", pytest.param("rolling", marks=pytest.mark.slow)])
+def test_reset_kernel_derives_what_numpy_derives(physics):
+    """The reset's Numba derivation (every world's ks, kd, terrain spring, kf, masses, radii, motor;
+    rolling: inertia and kr; rest radii, push offset) equals the numpy rule the make-time guard
+    uses (:meth:`RandomizedScene._derive` and ``World.set_parameters``), for the same draws."""
+    ranges = dict(RANGES, pusher_mass=(0.5, 3.0), obstacle_radius=(0.1, 0.2), stiffness=(0.5, 1.5))
+    a = PenaltyBallsScene(6, randomize=ranges, physics=physics, n_obstacles=2)
+    b = PenaltyBallsScene(6, randomize=ranges, physics=physics, n_obstacles=2)
+    idx = np.arange(6)
+    rngs = [np.random.default_rng(s) for s in range(6)]
+    a.reset_worlds(idx, rngs, observe=False)  # the kernel
+    drawn = a.drawn.copy()
+    b._apply_draws_numpy(idx, drawn, a.randomize)
+    for w in range(6):
+        pa, pb = a.world.parameters(w), b.world.parameters(w)
+        for key in pa:
+            assert np.allclose(pa[key], pb[key], rtol=1e-13, atol=0.0), (key, pa[key], pb[key])
+    assert np.allclose(a._rest_radii, b._rest_radii, rtol=1e-13, atol=0.0)
+    assert np.array_equal(a._push_offset, b._push_offset)
+    if physics == "rolling":
+        assert np.allclose(a.world._spin.inv_inertia, b.world._spin.inv_inertia, rtol=1e-13, atol=0.0)
+
+
 def test_closed_form_restitution_matches_the_numerical_inverse():
     e = np.array([0.22, 0.3, 0.47, 0.8, 0.99])
     fast = theory.zeta_for_restitution_no_tension(e)

@@ -20,7 +20,7 @@ from ..._jit import njit
 from ..geometry.evaluate import is_direct, is_moving, miss_test, to_local, to_parent
 from ..geometry.sdf import BOX, PLANE, sdf_box, sdf_plane
 from ..geometry.table import P0, SIGN
-from ..per_world import lane, lane_law
+from ..per_world import friction_on, lane, lane_law
 from .law import normal_force, regularised_ratio
 from .terrain import shape_force, terrain_law
 
@@ -58,7 +58,7 @@ def pair_lanes(i, j, X, V, A, F, W, model, g):
         fn = -normal_force(ks, kd, overlap, vn, model.no_tension)
         fn = fn if touch else 0.0
         ratio = 0.0
-        if mu > 0.0:
+        if friction_on(model.mu):
             vt2 = 0.0
             for k in range(D):
                 nk = (X[j, k, w] - X[i, k, w]) * inv + (e_last if k == D - 1 else 0.0)
@@ -68,7 +68,7 @@ def pair_lanes(i, j, X, V, A, F, W, model, g):
         for k in range(D):
             nk = (X[j, k, w] - X[i, k, w]) * inv + (e_last if k == D - 1 else 0.0)
             fk = fn * nk
-            if mu > 0.0:
+            if friction_on(model.mu):
                 fk += ratio * ((V[j, k, w] - V[i, k, w]) - vn * nk)
             F[k, w] = fk if touch else 0.0  # (not 0 x the normal: NaN must not spread)
     for k in range(D):
@@ -121,7 +121,7 @@ def _round_lanes(i, s, c0, c1, c2, X, V, A, F, W, model, g):
         fn = normal_force(ks, kd, pen, vn, model.no_tension)
         fn = fn if touch else 0.0
         ratio = 0.0
-        if mu > 0.0:
+        if friction_on(model.mu):
             t0 = V[i, 0, w] - vn * g0
             t1 = V[i, 1, w] - vn * g1
             vt2 = 0.0
@@ -134,7 +134,7 @@ def _round_lanes(i, s, c0, c1, c2, X, V, A, F, W, model, g):
         f0 = fn * g0
         f1 = fn * g1
         f2 = fn * g2
-        if mu > 0.0:
+        if friction_on(model.mu):
             f0 -= ratio * (V[i, 0, w] - vn * g0)
             f1 -= ratio * (V[i, 1, w] - vn * g1)
             if D == 3:
