@@ -328,6 +328,10 @@ class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene):
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_step_kernel"] = None  # compiled code: found again (cached) on the first step after
+        # a randomised scene's reset kernel and its arguments (views of the World's arrays, which
+        # a copy must not share): made again on the first reset after
+        state.pop("_derive_kernel", None)
+        state.pop("_derive_tail", None)
         return state
 
     # ------------------------------------------------------------------ construction helpers

@@ -239,6 +239,22 @@ def test_bad_randomize_is_refused(randomize, kwargs, match):
         PenaltyBallsScene(1, randomize=randomize, **kwargs)
 
 
+def test_pickled_randomised_env_continues_bit_for_bit():
+    import pickle
+
+    env = PenaltyBallsVectorEnv(3, randomize=RANGES, max_episode_steps=15)
+    env.reset(seed=4)
+    actions = np.random.default_rng(2).uniform(-1, 1, (40, 3, 2))
+    for a in actions[:10]:
+        env.step(a)
+    copy = pickle.loads(pickle.dumps(env))
+    for a in actions[10:]:  # (episodes end and reset within these steps: new draws in both)
+        want, got = env.step(a), copy.step(a)
+        assert np.array_equal(want[0], got[0])
+    assert copy.scene.world.model.radii is copy.scene._radii_rows  # its own arrays, still shared
+    assert copy.scene.task.push_offset is copy.scene._push_offset
+
+
 def test_no_compile_per_reset():
     """After the first reset and step, many resets (each drawing new masses, radii, stiffness) and
     steps compile nothing."""
