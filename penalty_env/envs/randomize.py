@@ -131,24 +131,27 @@ class RandomizedScene:
         over every corner of the ranges; more substeps than the fixed scene's (with a
         :class:`RandomizationWarning` naming the ranges that need them), or a ValueError when even
         :data:`MAX_SUBSTEPS` are not enough."""
-        dt_need, _ = self._corners_dt(probe, list(self.randomize))
+        dt_need, corner = self._corners_dt(probe, list(self.randomize))
         substeps = self._substeps_for(dt_need)
         if substeps <= self.substeps:  # the fixed scene's substep covers every corner
             return
-        culprits = [n for n in self.randomize if self._substeps_for(self._corners_dt(probe, [n])[0]) > self.substeps]
-        named = ", ".join(f"randomize[{n!r}]={self.randomize[n]}" for n in culprits) or (
-            "the ranges together (" + ", ".join(f"{n}={r}" for n, r in self.randomize.items()) + ")"
+        alone = {n: self._corners_dt(probe, [n])[0] for n in self.randomize}
+        culprits = [n for n, dt in alone.items() if self._substeps_for(dt) > self.substeps]
+        worst = ", ".join(f"{n}={v:g}" for n, v in corner.items())
+        named = (
+            "randomize={" + ", ".join(f"{n!r}: {r}" for n, r in self.randomize.items()) + "}"
+            f" needs a physics step of at most {dt_need:.4g} s at its worst corner ({worst})"
         )
+        if culprits:
+            named += " (alone: " + ", ".join(f"randomize[{n!r}] needs {alone[n]:.4g} s" for n in culprits) + ")"
         if substeps > MAX_SUBSTEPS:
             raise ValueError(
-                f"{named} would need a physics step of {dt_need:.3g} s ({substeps} substeps per control period of "
-                f"{self.control_period:g} s, more than {MAX_SUBSTEPS}) to stay stable at the ranges' corners; "
-                f"narrow the range"
+                f"{named}: {substeps} substeps per control period of {self.control_period:g} s, more than "
+                f"{MAX_SUBSTEPS}; narrow the range"
             )
         warnings.warn(
-            f"{named} needs a physics step of at most {dt_need:.4g} s at the ranges' corners (the fixed scene's is "
-            f"{self.dt:.4g} s): the randomised scene takes {substeps} substeps per control period instead of "
-            f"{self.substeps}",
+            f"{named}; the fixed scene's step is {self.dt:.4g} s: the randomised scene takes {substeps} substeps per "
+            f"control period instead of {self.substeps}",
             RandomizationWarning,
             stacklevel=5,
         )

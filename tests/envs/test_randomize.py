@@ -232,6 +232,11 @@ def test_reset_options_override_within_the_make_time_ranges():
         ({"roughness": (0.0, 0.1)}, {}, "needs terrain='bumpy'"),
         ({"ball_mass": (1.0, 2.0)}, {"grains": 10}, "not supported with sand"),
         ([("ball_mass", (1.0, 2.0))], {}, "randomize must be None or a dict"),
+        (  # a motor strong enough to need more than MAX_SUBSTEPS at the corner (F / v_max dt / m <= 1)
+            {"max_force": (20.0, 500.0), "pusher_mass": (0.1, 1.0)},
+            {"control_period": 0.25},
+            r"worst corner \(pusher_mass=0.1, max_force=500\).*more than 1000",
+        ),
     ],
 )
 def test_bad_randomize_is_refused(randomize, kwargs, match):
