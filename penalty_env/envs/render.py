@@ -408,6 +408,8 @@ class Renderer:
 
     def frame(self, b: int = 0) -> np.ndarray:
         s = self.scene
+        # (a randomised scene: world b's drawn radii)
+        radii = self.radii if not getattr(s, "randomize", None) else s.world.model.radii[b]
         heights = None
         if self.bowl:
             img = self.background.copy()
@@ -418,12 +420,12 @@ class Renderer:
         goal = np.ascontiguousarray(s.goal[b])
         if s.dim == 3:
             ground = np.ascontiguousarray(self._ground(b, pos, heights))
-            _draw_3d(img, pos, self.radii, self.colors, goal, s.goal_tolerance, ground, self.scale, self._order)
+            _draw_3d(img, pos, radii, self.colors, goal, s.goal_tolerance, ground, self.scale, self._order)
         else:
             _draw_2d(
                 img,
                 pos,
-                self.radii,
+                radii,
                 self.colors,
                 goal,
                 s.goal_tolerance,
