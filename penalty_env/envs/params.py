@@ -265,7 +265,7 @@ def check_seed(seed: Any) -> int | None:
     return V.integer("seed", seed, 0, None)
 
 
-def check_randomize(randomize: Any, params: dict[str, Any]) -> dict[str, tuple[float, float]]:
+def check_randomize(randomize: Any, params: dict[str, Any], dim: int = 3) -> dict[str, tuple[float, float]]:
     """``randomize`` (None or a mapping from :data:`RANDOMIZE` names to ``(low, high)`` pairs of
     finite floats, low <= high, each within its parameter's allowed range) as a dict in the draw
     order; {} for None. ``params``: the checked keyword arguments (``roughness`` needs
@@ -295,6 +295,13 @@ def check_randomize(randomize: Any, params: dict[str, Any]) -> dict[str, tuple[f
             continue
         lo_allowed, hi_allowed = STIFFNESS_FACTOR if param is None else PARAMETERS[param][1:3]
         out[name] = _range(f"randomize[{name!r}]", randomize[name], lo_allowed, hi_allowed, meaning)
+    if "obstacle_radius" in out and params["n_obstacles"]:  # every draw's obstacles must fit their region
+        try:
+            check_parameters(dim, dict(params, obstacle_radius=out["obstacle_radius"][1]))
+        except ValueError as exc:
+            raise ValueError(
+                f"randomize['obstacle_radius'] = {out['obstacle_radius']}: at its largest, {exc}"
+            ) from None
     return out
 
 

@@ -79,7 +79,7 @@ class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene):
         n_worlds = V.integer("n_worlds", n_worlds, 1)
         p = check_parameters(dim, params, owner)
         self.params = p
-        self.randomize = check_randomize(randomize, p)
+        self.randomize = check_randomize(randomize, p, dim)
         self.dim = int(dim)
         self.n_worlds = int(n_worlds)
         self._bodies(p)

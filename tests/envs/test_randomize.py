@@ -229,6 +229,7 @@ def test_reset_options_override_within_the_make_time_ranges():
         ({"ball_mass": ("a", "b")}, {}, r"\(low, high\) pair"),
         ({"ball_mass": (0.01, 1.0)}, {}, r"randomize\['ball_mass'\] = \(0.01, 1\) must lie within \[0.05, 10\]"),
         ({"stiffness": (0.1, 1.0)}, {}, r"within \[0.25, 4\]"),
+        ({"obstacle_radius": (0.1, 0.3)}, {"n_obstacles": 8}, r"obstacle_radius.*at its largest.*do not fit"),
         ({"roughness": (0.0, 0.1)}, {}, "needs terrain='bumpy'"),
         ({"ball_mass": (1.0, 2.0)}, {"grains": 10}, "not supported with sand"),
         ([("ball_mass", (1.0, 2.0))], {}, "randomize must be None or a dict"),
