@@ -52,3 +52,15 @@ for _id, _dim, _physics, _grains, _extra, _steps in (
             max_episode_steps=_steps,
             kwargs=_kwargs,
         )
+
+# The sand-shaping task (penalty_env.envs.sand_level): a kinematic blade levels a heap of grains
+# in a walled arena; 300-step episodes in 3D, 150 in 2D (LEVEL_EPISODE_STEPS, kept literal).
+for _id, _dim, _steps in (("PenaltySandLevel-v0", 3, 300), ("PenaltySandLevel2D-v0", 2, 150)):
+    if _id not in registry:
+        register(
+            id=_id,
+            entry_point="penalty_env.envs.sand_level:PenaltySandLevelEnv",
+            vector_entry_point="penalty_env.envs.sand_level:PenaltySandLevelVectorEnv",
+            max_episode_steps=_steps,
+            kwargs={"dim": _dim},
+        )

@@ -1,4 +1,4 @@
-"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup,train,randomize} [options]``."""
+"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup,train,randomize,level} [options]``."""
 
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ COMMANDS = {
     "startup": "penalty_env.bench.startup",
     "train": "penalty_env.bench.train",
     "randomize": "penalty_env.bench.randomize",
+    "level": "penalty_env.bench.level",
 }
 
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from .observation import ObservationLayout
 
-__all__ = ["ScriptedPusher"]
+__all__ = ["ScriptedPusher", "RasterSweep"]
 
 
 class ScriptedPusher:
@@ -64,3 +64,74 @@ class ScriptedPusher:
         else:  # head for the target; at least 0.25 throttle, to beat the friction dead zone
             cmd = err / max(dist, 1e-9) * min(1.0, 0.25 + 4.0 * dist)
         return np.clip(cmd, -1.0, 1.0).astype(np.float32)
+
+
+class RasterSweep:
+    """``policy(obs) -> action`` for observations of a PenaltySandLevel env: a raster sweep, the
+    sand-shaping task's scripted baseline.
+
+    The blade runs along x from its wall to the far end of its range, steps sideways (3D) to the
+    next of ``lanes`` lanes spread evenly over its y range, runs back, and so on; after the last
+    lane it sweeps the lanes again in reverse order (2D: back and forth along x). Each move is at
+    full speed towards the next waypoint (the last step slowed to land on it). It reads the blade's
+    position from the observation and keeps one waypoint index per row of a batch; a row whose
+    blade velocity reads exactly zero (a fresh episode: the blade starts at rest, and never stops
+    during a sweep) starts over.
+
+    Args:
+        env: a PenaltySandLevel env (single or vector) whose scene gives the blade's range, speed
+            and control period.
+        lanes: lanes across y in 3D (ignored in 2D).
+    """
+
+    def __init__(self, env, lanes: int = 4) -> None:
+        scene = env.unwrapped.scene if hasattr(env, "unwrapped") else env.scene
+        self.dim = scene.dim
+        self.range = np.asarray(scene.blade_range, dtype=np.float64)
+        self.step_length = scene.blade_speed * scene.control_period
+        C = scene.n_cells
+        self._pos = slice(2 * C, 2 * C + self.dim - 1)
+        self._vel = slice(2 * C + self.dim - 1, 2 * C + 2 * (self.dim - 1))
+        self.lanes = np.linspace(-self.range[1], self.range[1], lanes) if self.dim == 3 else np.zeros(1)
+        self._plans: dict[int, list] = {}
+        self._next: dict[int, int] = {}
+
+    def _plan(self, start: np.ndarray) -> list:
+        """Waypoints of one sweep from the blade's start (then repeated, reversed)."""
+        x0 = float(np.sign(start[0]) or -1.0) * self.range[0]
+        if self.dim == 2:
+            return [np.array([-x0]), np.array([x0])]
+        lanes = self.lanes if abs(start[1] - self.lanes[0]) <= abs(start[1] - self.lanes[-1]) else self.lanes[::-1]
+        points, x = [], x0
+        for k, y in enumerate(lanes):
+            if k:
+                points.append(np.array([x, y]))
+            else:
+                points.append(np.array([x, y]))
+            x = -x
+            points.append(np.array([x, y]))
+        back = [np.array([p[0], p[1]]) for p in points[::-1]]
+        return points + back[1:]
+
+    def reset(self) -> None:
+        """Forget every row's progress."""
+        self._plans.clear()
+        self._next.clear()
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        obs = np.asarray(obs)
+        if obs.ndim == 2:
+            return np.stack([self._act(i, o) for i, o in enumerate(obs)])
+        return self._act(0, obs)
+
+    def _act(self, row: int, obs: np.ndarray) -> np.ndarray:
+        pos = obs[self._pos].astype(np.float64)
+        if row not in self._plans or not np.any(obs[self._vel]):
+            self._plans[row] = self._plan(pos)
+            self._next[row] = 0
+        plan = self._plans[row]
+        k = self._next[row]
+        while float(np.max(np.abs(plan[k] - pos))) < 1e-3:
+            k = (k + 1) % len(plan)
+        self._next[row] = k
+        return np.clip((plan[k] - pos) / self.step_length, -1.0, 1.0).astype(np.float32)
