@@ -78,6 +78,19 @@ _SAND: dict[str, Any] = dict(
     eval_freq=131_072,
 )
 
+# the sand-shaping task (docs/level.md): train/train_level.py's settings (that script, not
+# train_ppo.py, trains these ids: 8 single envs in a DummyVecEnv, as rl-zoo3 steps them)
+_LEVEL: dict[str, Any] = dict(
+    LEGACY,
+    timesteps=2_000_000,
+    n_envs=8,
+    n_steps=256,
+    batch_size=256,
+    learning_rate=3e-4,
+    gamma=0.99,
+    eval_freq=20_000,
+)
+
 TUNED: dict[str, dict[str, Any]] = {
     "PenaltyBalls-v0": _V0,
     "PenaltyBalls2D-v0": _V0,
@@ -87,6 +100,8 @@ TUNED: dict[str, dict[str, Any]] = {
     "PenaltyBallsSand2D-v0": _SAND,
     "PenaltyBallsSand-v1": _SAND,
     "PenaltyBallsSand2D-v1": _SAND,
+    "PenaltySandLevel-v0": _LEVEL,
+    "PenaltySandLevel2D-v0": _LEVEL,
 }
 CURRICULUM: dict[str, str] = {
     "PenaltyBallsSand-v0": "PenaltyBalls-v1",

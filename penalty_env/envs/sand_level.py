@@ -571,18 +571,21 @@ class PenaltySandLevelEnv(gym.Env[np.ndarray, np.ndarray]):
     """
     ## Description
 
-    A heap of grains lies in a walled square arena (1.6 m wide; in 2D its vertical slice, a 1.6 m
-    trough). The agent drives a kinematic blade, a box 0.06 m thick, 0.5 m wide and 0.5 m tall
+    A heap of grains lies in a walled square arena 2 m wide (in 2D its vertical slice, a trough
+    2 m long). The agent drives a kinematic blade, a box 0.06 m thick, 0.5 m wide and 0.5 m tall
     (2D: a rectangle 0.06 x 0.5 m), through the grains and must shape the bed to a target surface:
-    flat by default (the level surface holding the bed's volume), or a slope or a mound drawn per
+    flat by default (the level surface holding the grains' volume), a slope or a mound drawn per
     episode (`target="random"`), or any height map given at reset. The grains are the penalty
-    core's balls (radius 0.06 m, mass 0.5 kg, friction 0.5, rolling resistance 0.1: a heap
-    stands); the floor and the walls are planes; the blade is a `Box` terrain shape whose velocity
-    the action sets for each control period, so it moves with every physics step and the grains
-    feel its motion (the dashpot and friction act on the relative velocity).
+    core's balls (radius 0.06 m, mass 0.5 kg, friction 0.5 with a tangential spring, so static
+    friction holds, rolling resistance 0.1: the grains of docs/granular.md's 3D piles); the floor
+    and the walls are planes; the blade is a `Box` terrain shape whose velocity the action sets
+    for each control period, so it moves with every physics step and the grains feel its motion
+    (the dashpot and friction act on the velocity relative to its surface).
 
     The blade's bottom follows the target surface under the blade's centre (bilinear between the
-    target's cells), as a grader's automatic blade control holds a design surface: the agent
+    target's cells) a grain radius above it (a bed's grain tops stand about a radius above its
+    depth), and never below one grain layer plus 1 cm (0.13 m: lower, it would bulldoze every
+    grain on the floor), as a grader's automatic blade control holds a design surface: the agent
     steers, the blade cuts what stands above the target and carries it on to where the bed lies
     below it. The blade's face is across the x axis, so it pushes along x (in 3D a move along y
     slides it sideways, edge first).
@@ -591,27 +594,33 @@ class PenaltySandLevelEnv(gym.Env[np.ndarray, np.ndarray]):
 
     `Box(-1, 1, (d - 1,), float32)`: the blade's horizontal velocity command, `blade_speed` (0.5
     m/s) per unit on each axis. Finite values outside [-1, 1] are clipped; the move is cut short
-    where the blade would pass its range (its faces 0.1 m from the walls: the centre within
-    0.67 m of the arena's centre along x, and 0.45 m along y in 3D). The blade's vertical speed
-    towards the target surface is at most `blade_speed`. NaN or inf, or a wrong shape, raises
+    where the blade would leave its range (its faces 0.1 m from the walls: the centre within
+    0.87 m of the arena's centre along x, and 0.65 m along y in 3D). The blade's vertical speed
+    towards its target height is at most `blade_speed`. NaN or inf, or a wrong shape, raises
     `ValueError`.
 
     ## Observation Space
 
-    `Box(float32)` of size `2 C + 2 (d - 1)`, C = `cells`^(d-1) (8 x 8 = 64 in 3D, 16 in 2D: 132
-    and 34 entries):
+    `Box(float32)` of size `2 C + 2 (d - 1)`, C = `cells`^(d-1) (10 x 10 = 100 in 3D, 20 in 2D:
+    204 and 42 entries):
 
     | Index | Observation | Min | Max |
     |---|---|---|---|
     | 0 : C | the bed's height map, m | 0 | 1 |
     | C : 2C | the target height map, m | 0 | 1 |
-    | 2C : 2C + d - 1 | the blade's horizontal position (its centre), m | -0.8 | 0.8 |
+    | 2C : 2C + d - 1 | the blade's horizontal position (its centre), m | -1 | 1 |
     | 2C + d - 1 : | the blade's horizontal velocity, m/s | -blade_speed | blade_speed |
 
-    The maps cover the arena ([-0.8, 0.8] m along each horizontal axis) with `cells` cells per
-    axis, row-major (x, then y): each cell holds the highest grain top (centre height + radius)
-    among the grains whose centre lies above it, 0 where none does (the bare floor), clipped to
-    1 m (no heap reaches it).
+    The maps cover the arena ([-1, 1] m along each horizontal axis) with `cells` cells per axis,
+    row-major (x, then y). The height map is the depth of sand over each cell: the volume of the
+    grains over it divided by the cell's area and a nominal solid fraction (0.6 in 3D, 0.82 in
+    2D), so that a bed packed at that fraction reads its thickness. Each grain's volume is shared
+    between the cells around its centre by bilinear (cloud-in-cell) weights, so the map changes
+    continuously as grains move and its sum is the grains' volume exactly (a conserved quantity:
+    tested). Values are clipped to 1 m (no heap reaches it). A map of the highest grain top per
+    cell was the first design; it does not work with a few hundred grains: a heap of 250 grains
+    holds a bed only 0.09 m deep (less than a grain) once spread over the arena, so a level bed
+    reads 0 or a grain's height cell by cell (docs/level.md).
 
     ## Rewards
 
@@ -624,26 +633,27 @@ class PenaltySandLevelEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Starting State
 
     The heap is settled once per configuration and process (grains dropped from a lattice cone of
-    45 degrees in the centre, stepped with the scene's own physics until none moves faster than
-    2 cm/s) and cached; each reset starts from it, at rest, turned by a uniform quarter turn (3D)
-    or mirrored with probability 1/2 (2D). The blade starts at rest at one of the two x walls (at
-    the end of its range, the side uniform), in 3D at a uniform y within its range, its bottom on
-    the target surface or 5 mm above the grains under it, whichever is higher. The draws, from
-    the env's `np_random`, in order: the turn, the side, (3D) y, then for `target="random"` the
-    target's four.
+    35 degrees in the centre, stepped with the scene's own physics for at least 15 s and until no
+    grain moves faster than 5 mm/s) and cached; each reset starts from it, at rest, turned by a
+    uniform quarter turn (3D) or mirrored with probability 1/2 (2D). The blade starts at rest at
+    one of the two x ends of its range (the side uniform), in 3D at a uniform y within its range,
+    its bottom at its target height or 5 mm above the grains under it, whichever is higher. The
+    draws, from the env's `np_random`, in order: the turn, the side, (3D) y, then for
+    `target="random"` the target's four.
 
-    The flat target is the mean of the settled heap's height map over the cells: the level
-    surface holding the same volume under the map's surface (0.33 m in 3D, 0.39 m in 2D at the
-    defaults). `target="random"` adds to it a relief of zero mean whose largest |value| is 0.25
-    to 0.5 x the level: a plane sloping along a uniform direction, or a Gaussian mound or pit of
-    width 0.32 m. `reset(options={"target": map})` sets a map for that episode (C values, or
-    (cells, cells) in 3D, within [0, 1] m; else `ValueError`).
+    The flat target is the grains' volume over the arena's area at the map's solid fraction (0.094
+    m in 3D, 0.166 m in 2D at the defaults), which is also the mean of every height map with all
+    grains inside. `target="random"` adds to it a relief of zero mean whose largest |value| is
+    0.25 to 0.5 x the level: a plane sloping along a uniform direction, or a Gaussian mound or pit
+    of width 0.4 m. `reset(options={"target": map})` sets a map for that episode (C values, or
+    (cells, cells) in 3D, within [0, 1] m; else `ValueError` naming `options['target']`).
 
     ## Episode End
 
-    1. Termination (success): the error falls below `success_fraction` (0.5) x the episode's
-       initial error.
-    2. Truncation: the registered `max_episode_steps` (250 steps, 25 s, in 3D; 150, 15 s, in 2D).
+    1. Termination (success): the error falls below `success_fraction` x the episode's initial
+       error (0.5 in 3D, 0.7 in 2D: the raster sweep in `penalty_env.envs.scripted` reaches it,
+       a random policy does not; docs/level.md).
+    2. Truncation: the registered `max_episode_steps` (300 steps, 30 s, in 3D; 150, 15 s, in 2D).
 
     ## Arguments
 
@@ -652,14 +662,22 @@ class PenaltySandLevelEnv(gym.Env[np.ndarray, np.ndarray]):
 
     {parameters}
 
+    `grains` is refused beyond a flat level of 0.4 m.
+
     ## Physics
 
-    By `penalty_env.physics.configure`, as the PenaltyBalls scene: a grain-grain impact at twice
+    By `penalty_env.physics.configure`, as in the PenaltyBalls scene: a grain-grain impact at twice
     the blade's top speed overlaps at most 10% of a radius, also under the weight of a column of
-    grains as tall as the heap's start, and rebounds at restitution 0.3; the substep keeps the
-    restitution's worst-case error within 30% and the core's stability limit (52 substeps of
-    1.9 ms per 0.1 s step at the defaults). Each world is stepped by the core's scalar step
-    through a grid of the grains' size. `env.unwrapped.scene.describe()` prints the values.
+    grains as tall as the heap's start lattice, and rebounds at restitution 0.3; the substep keeps
+    the restitution's worst-case error within 30% and the core's stability limit, the tangential
+    spring's included (89 substeps of 1.1 ms per 0.1 s step in 3D, 55 of 1.8 ms in 2D). Each world
+    is stepped by the core's scalar step through a grid of the grains' size.
+    `env.unwrapped.scene.describe()` prints the values.
+
+    ## Rendering
+
+    `render_mode="rgb_array"`: the height map (left) and the target (right) as grey levels (3D)
+    or bars (2D), the blade's cell marked red; a diagnostic view, not a picture of the grains.
 
     ## Version History
 
