@@ -3,7 +3,8 @@
 Importing the package registers ``PenaltyBalls-v0`` (3D) and ``PenaltyBalls2D-v0`` with
 Gymnasium, their ``-v1`` (the balls roll), and ``PenaltyBallsSand-v0`` / ``PenaltyBallsSand2D-v0``
 (v1 with a bed of sand grains in the bowl) and their ``-v1`` (heavier grains, longer episodes),
-all with a native vector entry point. Registration stores import paths only, so this
+and ``PenaltySandLevel-v0`` / ``PenaltySandLevel2D-v0`` (a blade levels a heap of grains), all
+with a native vector entry point. Registration stores import paths only, so this
 import stays cheap: the environments (and Numba) load when an env is first made.
 """
 

@@ -322,29 +322,30 @@ class SandLevelScene:
         return arr
 
     def random_target(self, rng: np.random.Generator) -> np.ndarray:
-        """A target drawn from ``rng`` (4 uniforms): the flat level plus a relief of zero mean over
-        the cells whose largest |value| is a x the level, a uniform in ``TARGET_AMPLITUDE``: a
-        plane sloping along a uniform direction (u < 0.5), or a Gaussian mound (or pit, by the
-        sign) of width 0.4 L at a uniform point of the inner half of the arena. The map keeps the
-        flat target's volume (its mean is the level)."""
-        u = rng.random(4)
+        """A target drawn from ``rng`` (5 uniforms u0..u4): the flat level plus a relief of zero
+        mean over the cells whose largest |value| is a x the level, a = 0.25 + 0.25 u1
+        (``TARGET_AMPLITUDE``). If u0 < 0.5 the relief is a plane sloping along the direction of
+        angle 2 pi u2 (2D: +x if u2 < 0.5, else -x); otherwise a Gaussian of standard deviation
+        0.4 L centred in the inner half of the arena (3D: at radius 0.5 L sqrt(u2), angle 2 pi u3;
+        2D: at (u3 - 0.5) L), a mound, or a pit if u4 < 0.5. The map keeps the flat target's
+        volume (its mean is the level)."""
+        u = rng.random(5)
         h, L = self.cell_centres, HALF_WIDTH
         amp = (TARGET_AMPLITUDE[0] + (TARGET_AMPLITUDE[1] - TARGET_AMPLITUDE[0]) * u[1]) * self.flat_level
         if u[0] < 0.5:  # a slope
-            phi = 2.0 * math.pi * u[2]
-            direction = np.array([math.cos(phi), math.sin(phi)])[: self.dim - 1]
-            if self.dim == 2:
+            if self.dim == 3:
+                direction = np.array([math.cos(2.0 * math.pi * u[2]), math.sin(2.0 * math.pi * u[2])])
+            else:
                 direction = np.array([1.0 if u[2] < 0.5 else -1.0])
             f = h @ direction
-        else:  # a mound (u[2] >= 0.5) or a pit, centred in the inner half
-            centre = (u[3] - 0.5) * L * np.ones(self.dim - 1) if self.dim == 2 else None
+        else:  # a mound or a pit, centred in the inner half
             if self.dim == 3:
                 phi = 2.0 * math.pi * u[3]
                 centre = 0.5 * L * math.sqrt(u[2]) * np.array([math.cos(phi), math.sin(phi)])
+            else:
+                centre = np.array([(u[3] - 0.5) * L])
             f = np.exp(-0.5 * np.sum((h - centre) ** 2, axis=1) / (0.4 * L) ** 2)
-            if self.dim == 2 and u[2] < 0.75:
-                f = -f
-            elif self.dim == 3 and u[1] < 0.5:
+            if u[4] < 0.5:
                 f = -f
         f = f - f.mean()
         f = f / np.abs(f).max()
@@ -638,15 +639,16 @@ class PenaltySandLevelEnv(gym.Env[np.ndarray, np.ndarray]):
     uniform quarter turn (3D) or mirrored with probability 1/2 (2D). The blade starts at rest at
     one of the two x ends of its range (the side uniform), in 3D at a uniform y within its range,
     its bottom at its target height or 5 mm above the grains under it, whichever is higher. The
-    draws, from the env's `np_random`, in order: the turn, the side, (3D) y, then for
-    `target="random"` the target's four.
+    draws, from the env's `np_random`, in order: the turn, the side, for `target="random"` the
+    target's five, then (3D) y.
 
     The flat target is the grains' volume over the arena's area at the map's solid fraction (0.094
     m in 3D, 0.166 m in 2D at the defaults), which is also the mean of every height map with all
     grains inside. `target="random"` adds to it a relief of zero mean whose largest |value| is
     0.25 to 0.5 x the level: a plane sloping along a uniform direction, or a Gaussian mound or pit
-    of width 0.4 m. `reset(options={"target": map})` sets a map for that episode (C values, or
-    (cells, cells) in 3D, within [0, 1] m; else `ValueError` naming `options['target']`).
+    of standard deviation 0.4 m, each with probability 1/2. `reset(options={"target": map})` sets
+    a map for that episode (C values, or (cells, cells) in 3D, within [0, 1] m; else `ValueError`
+    naming `options['target']`).
 
     ## Episode End
 
