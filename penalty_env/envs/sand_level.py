@@ -464,7 +464,7 @@ class SandLevelScene:
         """World b as a uint8 RGB image: the height map (left) and the target (right), each cell a
         ``scale``-pixel square (2D: a column of bars), grey by height (white at 0.5 m), the blade's
         cell red on the map."""
-        C, n = self.n_cells, self.cells
+        n = self.cells
         maps = np.stack([self.maps[b], self.targets[b]])
         if self.dim == 2:
             rows = np.arange(n)[::-1, None] * (0.5 / n)  # a bar chart: row k lit below the height
@@ -479,7 +479,6 @@ class SandLevelScene:
             rgb[0, :, cell[0]] = rgb[0, :, cell[0]] * 0.5 + np.array([0.5, 0.0, 0.0])
         gap = np.ones((n, 1, 3))
         out = np.concatenate([rgb[0], gap, rgb[1]], axis=1)
-        del C
         return (np.kron(out, np.ones((scale, scale, 1))) * 255).astype(np.uint8)
 
     def info(self, b: int) -> dict[str, Any]:

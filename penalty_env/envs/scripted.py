@@ -103,11 +103,8 @@ class RasterSweep:
             return [np.array([-x0]), np.array([x0])]
         lanes = self.lanes if abs(start[1] - self.lanes[0]) <= abs(start[1] - self.lanes[-1]) else self.lanes[::-1]
         points, x = [], x0
-        for k, y in enumerate(lanes):
-            if k:
-                points.append(np.array([x, y]))
-            else:
-                points.append(np.array([x, y]))
+        for y in lanes:  # along the lane from where the blade is, then across to the next lane
+            points.append(np.array([x, y]))
             x = -x
             points.append(np.array([x, y]))
         back = [np.array([p[0], p[1]]) for p in points[::-1]]
