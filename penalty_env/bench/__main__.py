@@ -1,4 +1,4 @@
-"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup,train} [options]``."""
+"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup,train,views} [options]``."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ COMMANDS = {
     "scale": "penalty_env.bench.scale",
     "startup": "penalty_env.bench.startup",
     "train": "penalty_env.bench.train",
+    "views": "penalty_env.bench.views",
 }
 
 
