@@ -61,5 +61,5 @@ def test_a_short_run_from_pixels_saves_a_cnn_policy(tmp_path):
     from stable_baselines3 import PPO
 
     model = PPO.load(out / "model.zip", device="cpu")
-    assert type(model.policy).__name__ == "CnnPolicy"
+    assert type(model.policy).__name__ == "ActorCriticCnnPolicy"  # (SB3's CnnPolicy)
     assert model.observation_space.shape == (3, 36, 36)  # (SB3 stores the transposed image space)
