@@ -127,7 +127,7 @@ class PenaltyBallsEnv(gym.Env[Any, np.ndarray]):
     (slope shading and height contours; grey walls; per world on the bumpy ground, redrawn when
     its bumps change), the goal as a green disc of radius `goal_tolerance`, and each ball as a
     flat disc of its colour (grains, obstacles grey, the pusher blue, the ball orange on top). A
-    ball outside the view is drawn small at the border. About 140,000 images per second at
+    ball outside the view is drawn small at the border. About 130,000 images per second at
     1,024 worlds on 2 cores (`python -m penalty_env.bench views`).
 
     ## Rewards
