@@ -27,6 +27,7 @@ from .envs import kernel as KE
 from .envs.penalty_balls import MAX_EPISODE_STEPS
 from .envs.render import Renderer
 from .envs.scene import PenaltyBallsScene, coerce_action, render_fps
+from .envs.views import Views, pop_view_kwargs
 
 __all__ = ["PenaltyBallsVecEnv", "make_vec_env"]
 
@@ -50,7 +51,12 @@ class PenaltyBallsVecEnv(VecEnv):
         dim: 3 or 2.
         max_episode_steps: episode length (truncation).
         render_mode: None or "rgb_array" (``get_images`` returns one frame per world).
-        **kwargs: the scene's keyword arguments (``PenaltyBallsEnv``'s docstring lists them).
+        **kwargs: the scene's keyword arguments (``PenaltyBallsEnv``'s docstring lists them),
+            and the observation mode: ``obs_mode`` (``"state"``, ``"heightmap"``, ``"rgb"`` or a
+            tuple of them), ``heightmap_cells``, ``heightmap_cell``, ``rgb_size``. An ``"rgb"``
+            observation is a channel-last uint8 image (SB3's ``CnnPolicy`` takes it as it is);
+            a tuple gives a ``Dict`` observation (``MultiInputPolicy``), whose
+            ``terminal_observation`` is a dict too.
 
     ``get_attr``, ``set_attr`` and ``env_method`` act on this one object, which all worlds share
     (there are no per-world env objects); they return one result per requested index.
@@ -72,13 +78,16 @@ class PenaltyBallsVecEnv(VecEnv):
             raise ValueError(f"max_episode_steps must be an int >= 1, got {max_episode_steps!r}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        view_kwargs = pop_view_kwargs(kwargs)
         self.scene = PenaltyBallsScene(
             V.integer("n_envs", n_envs, 1), dim=dim, owner="PenaltyBallsVecEnv.__init__", **kwargs
         )
+        self.views = Views(self.scene, **view_kwargs)
+        self._view = None if self.views.is_state else self.views  # None: the state vector, as it is
         self._never = np.zeros(n_envs, dtype=np.bool_)
         self.render_mode = render_mode
         self.max_episode_steps = int(max_episode_steps)
-        super().__init__(self.scene.n_worlds, self.scene.observation_space, self.scene.action_space)
+        super().__init__(self.scene.n_worlds, self.views.space, self.scene.action_space)
         # SB3's VecVideoRecorder records at metadata["render_fps"] (30 when it is missing)
         self.metadata: dict[str, Any] = {**self.metadata, "render_fps": render_fps(self.scene.control_period)}
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
@@ -101,7 +110,7 @@ class PenaltyBallsVecEnv(VecEnv):
         self.reset_infos = [self.scene.info(i) for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
-        return self.scene.obs.copy()
+        return self.scene.obs.copy() if self._view is None else self._view.observe()
 
     def stagger(self, seed: int | None = None) -> None:
         """Put the worlds' episodes out of phase: after the next ``reset()`` only, world i's first
@@ -137,13 +146,19 @@ class PenaltyBallsVecEnv(VecEnv):
         infos = self._step_infos(truncated & ~terminated)
         if dones.any():
             idx = np.flatnonzero(dones)
-            for i in idx:
-                infos[i]["terminal_observation"] = scene.obs[i].copy()
+            if self._view is None:
+                for i in idx:
+                    infos[i]["terminal_observation"] = scene.obs[i].copy()
+            else:
+                last = self._view.observe(idx)
+                for t, i in enumerate(idx):
+                    infos[i]["terminal_observation"] = self._view.item(last, t)
             scene.reset_worlds(idx, [self._rngs[i] for i in idx])
             self._steps[idx] = 0
             for i in idx:
                 self.reset_infos[i] = scene.info(int(i))
-        return scene.obs.copy(), rewards, dones, infos
+        obs = scene.obs.copy() if self._view is None else self._view.observe()
+        return obs, rewards, dones, infos
 
     def close(self) -> None:
         self._renderer = None

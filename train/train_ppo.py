@@ -6,6 +6,7 @@
     python train/train_ppo.py --env-id PenaltyBalls-v1       # rolling balls
     python train/train_ppo.py --env-id PenaltyBallsSand-v1   # sand, from scratch: a curriculum inside
     python train/train_ppo.py --env-id PenaltyBalls2D-v0 --env-kwarg n_obstacles=2
+    python train/train_ppo.py --env-id PenaltyBalls2D-v0 --obs-mode rgb   # from pixels (CnnPolicy)
 
 Each id trains with its own tuned settings (``train/_tuned.py``; docs/training.md says how they
 were chosen); any flag overrides them. The worlds are stepped by our native SB3 VecEnv (one Numba
@@ -74,6 +75,7 @@ SETTINGS: dict[str, Any] = dict(
     gif=True,
     stagger=True,  # the training worlds' first episodes out of phase (PenaltyBallsVecEnv.stagger)
     curriculum=True,  # main(): run the id's curriculum stage first (_tuned.CURRICULUM) when it has one
+    obs_mode="state",  # the env's obs_mode: "state", "heightmap", "rgb" or a tuple of them (a Dict)
 )
 # the settings summary.json records under "hyperparameters"
 HYPERPARAMETERS = (
@@ -182,7 +184,33 @@ def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
         if not isinstance(s[key], bool):
             raise ValueError(f"setting {key!r} must be true or false, got {s[key]!r}")
     s["env_kwargs"] = dict(s["env_kwargs"])
+    from penalty_env.envs.views import check_obs_mode
+
+    mode = s["obs_mode"]
+    if isinstance(mode, str) and "," in mode:  # the command line's "state,rgb"
+        mode = tuple(m.strip() for m in mode.split(","))
+    try:
+        s["obs_mode"] = check_obs_mode(mode)
+    except ValueError as e:
+        raise ValueError(f"setting 'obs_mode': {e}") from None
+    if "obs_mode" in s["env_kwargs"]:
+        raise ValueError("set the observation mode with the setting 'obs_mode' (--obs-mode), not in env_kwargs")
+    if s["obs_mode"] != "state" and s["init_from"] is not None:
+        raise ValueError(f"setting 'init_from' needs obs_mode 'state', got obs_mode {s['obs_mode']!r}")
     return s
+
+
+def policy_for(obs_mode: str | tuple[str, ...]) -> tuple[str, dict[str, Any]]:
+    """The SB3 policy for an observation mode and VecNormalize's arguments: vectors (``"state"``,
+    ``"heightmap"``) an ``MlpPolicy``, normalised; images (``"rgb"``) SB3's ``CnnPolicy``, not
+    normalised (it scales uint8 pixels to [0, 1] itself); a ``Dict`` a ``MultiInputPolicy``, its
+    vector entries normalised."""
+    if isinstance(obs_mode, str):
+        if obs_mode == "rgb":
+            return "CnnPolicy", {"norm_obs": False}
+        return "MlpPolicy", {"norm_obs": True}
+    keys = [m for m in obs_mode if m != "rgb"]
+    return "MultiInputPolicy", ({"norm_obs": True, "norm_obs_keys": keys} if keys else {"norm_obs": False})
 
 
 # the settings with a per-id tuned value: (name, type, help)
@@ -276,6 +304,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="a sand id from scratch, without its curriculum's first stage (train/_tuned.py)",
     )
     p.add_argument(
+        "--obs-mode",
+        default="state",
+        help="the env's observation: state (default), heightmap, rgb (an image: PPO's CnnPolicy), or several "
+        "comma separated, e.g. state,rgb (a Dict: MultiInputPolicy)",
+    )
+    p.add_argument(
         "--numba-threads",
         type=int,
         default=None,
@@ -301,6 +335,7 @@ def settings_from_args(args: argparse.Namespace) -> dict[str, Any]:
         stop_at=args.stop_at,
         gif=not args.no_gif,
         curriculum=not args.no_curriculum,
+        obs_mode=args.obs_mode,
     )
     if args.no_stagger:
         s["stagger"] = False
@@ -385,13 +420,16 @@ def train(
     env_id: str = s["env_id"]
     seed: int = s["seed"]
     env_kwargs: dict[str, Any] = s["env_kwargs"]
+    policy, norm = policy_for(s["obs_mode"])
+    if s["obs_mode"] != "state":
+        env_kwargs = {**env_kwargs, "obs_mode": s["obs_mode"]}
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     set_random_seed(seed)
 
     venv = timed_env = TimedVecEnv(C.make_env(env_id, s["n_envs"], seed, env_kwargs, stagger=s["stagger"]))
     if s["normalize"]:
-        venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=s["gamma"])
+        venv = VecNormalize(venv, norm_reward=True, gamma=s["gamma"], **norm)
     vecnorm = venv if isinstance(venv, VecNormalize) else None
 
     curve: list[dict] = []
@@ -414,7 +452,7 @@ def train(
     hidden = [int(h) for h in s["net_arch"].split(",") if h.strip()]
     lr0 = s["learning_rate"]
     model = TimedPPO(
-        "MlpPolicy",
+        policy,
         venv,
         n_steps=s["n_steps"],
         batch_size=s["batch_size"],
@@ -470,6 +508,7 @@ def train(
     summary = {
         "env_id": env_id,
         "env_kwargs": env_kwargs,
+        "obs_mode": s["obs_mode"],
         "seed": seed,
         "timesteps": int(model.num_timesteps),
         "wall_time_s": round(wall, 2),
@@ -501,7 +540,7 @@ def train(
         w.writeheader()
         w.writerows(curve)
     plot_curve(curve, summary, out / "learning_curve.png")
-    if s["gif"]:
+    if s["gif"] and not isinstance(s["obs_mode"], tuple):  # (record_gif feeds one array observation)
         C.record_gif(env_id, env_kwargs, C.model_policy(model, vecnorm), out / "policy.gif", seed=final_seed)
 
     print(

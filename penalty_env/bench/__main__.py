@@ -1,4 +1,4 @@
-"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup,train,randomize,level} [options]``."""
+"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup,train,randomize,level,views} [options]``."""
 
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ COMMANDS = {
     "train": "penalty_env.bench.train",
     "randomize": "penalty_env.bench.randomize",
     "level": "penalty_env.bench.level",
+    "views": "penalty_env.bench.views",
 }
 
 

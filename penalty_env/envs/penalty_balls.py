@@ -18,6 +18,7 @@ from .params import CHOICE_PARAMETERS, PARAMETERS, check_options, check_seed, co
 from .render import HumanWindow, Renderer
 from .scene import PenaltyBallsScene
 from .vector import MAX_EPISODE_STEPS, PenaltyBallsVectorEnv
+from .views import Views, pop_view_kwargs
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS", "SAND_V1_EPISODE_STEPS"]
 
@@ -33,7 +34,7 @@ def _parameters_table() -> str:
     return "\n".join(rows)
 
 
-class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
+class PenaltyBallsEnv(gym.Env[Any, np.ndarray]):
     """
     ## Description
 
@@ -67,6 +68,22 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Observation Space
 
+    `obs_mode=` picks the observation (the keyword of `gymnasium.make`, `gymnasium.make_vec` and
+    `penalty_env.sb3.make_vec_env`): `"state"` (the default), `"heightmap"`, `"rgb"`, or a tuple
+    or list of them, e.g. `("state", "rgb")`, for a `spaces.Dict` keyed by mode name. Any other
+    value raises `ValueError` naming the allowed ones. Every mode is computed for every terrain,
+    in 2D and 3D, with and without sand; the vector and SB3 envs give the same observations as
+    single envs seeded the same.
+
+    | Keyword | Default | Allowed | Description |
+    |---|---|---|---|
+    | `obs_mode` | `"state"` | `"state"`, `"heightmap"`, `"rgb"`, a tuple or list of them | the observation |
+    | `heightmap_cells` | 16 | [2, 64] | `"heightmap"`: cells per horizontal axis |
+    | `heightmap_cell` | 0.1 | [0.01, 1.0] | `"heightmap"`: cell edge, m |
+    | `rgb_size` | 64 | [16, 256] | `"rgb"`: image width and height, pixels |
+
+    ### `obs_mode="state"`
+
     `Box(float32)` of size `7 d + 2 d n_obstacles` (21 in 3D, 14 in 2D without obstacles). Each
     entry is clipped to its bounds, which no physical state reaches. Positions are relative to the
     bowl's lowest point (the origin); the last axis is up; R is `bowl_radius`.
@@ -88,6 +105,30 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     With sand (`grains > 0`, the `PenaltyBallsSand` ids) the grains are not observed one by one:
     after these fields comes the sand's height map around the ball, `5^(d-1)` entries (25 in 3D,
     5 in 2D; see "Sand"), so the size stays fixed whatever the grain count.
+
+    ### `obs_mode="heightmap"`
+
+    `Box(0, 2R, (cells, cells), float32)` in 3D, `(cells,)` in 2D: a grid of `heightmap_cells`
+    cells of `heightmap_cell` metres (16 x 16 cells of 0.1 m: 1.6 m square) centred on the
+    pusher; entry `[i, j]` is at x = pusher x + (i - (cells - 1) / 2) cell (y likewise with j).
+    Each entry is the height above the bowl's lowest point of whatever is highest over the cell's
+    centre: the terrain there, or the top of a ball (pusher, ball, obstacles, grains) over it,
+    z + sqrt(r^2 - rho^2) at horizontal distance rho < r from its centre. The terrain's height is
+    the bowl's closed form R - sqrt(R^2 - rho^2) (solid beyond its rim: 2R), the arena's floor 0
+    (its walls: 2R), or on the bumpy ground the height field's nodes, bilinear, the bowl beyond.
+    Clipped to [0, 2R]. The goal is not in the map: combine the mode with `"state"` (a `Dict`)
+    for a policy that must find it.
+
+    ### `obs_mode="rgb"`
+
+    `Box(0, 255, (size, size, 3), uint8)` (`rgb_size`, 64 by default), channel-last as SB3's
+    `CnnPolicy` expects: a top view in 3D (x right, y up), a side view in 2D (x right, z up),
+    3.5 m across and centred on the bowl's bottom like `render()`'s frames: the terrain's image
+    (slope shading and height contours; grey walls; per world on the bumpy ground, redrawn when
+    its bumps change), the goal as a green disc of radius `goal_tolerance`, and each ball as a
+    flat disc of its colour (grains, obstacles grey, the pusher blue, the ball orange on top). A
+    ball outside the view is drawn small at the border. About 130,000 images per second at
+    1,024 worlds on 2 cores (`python -m penalty_env.bench views`).
 
     ## Rewards
 
@@ -309,12 +350,15 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
     def __init__(self, dim: int = 3, render_mode: str | None = None, **kwargs: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        view_kwargs = pop_view_kwargs(kwargs)
         self.scene = PenaltyBallsScene(1, dim=dim, **kwargs)
+        self.views = Views(self.scene, **view_kwargs)
+        self._view = None if self.views.is_state else self.views  # None: the state vector, as it is
         self.dim = self.scene.dim
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=render_fps(self.scene.control_period))
         self.action_space = self.scene.action_space
-        self.observation_space = self.scene.observation_space
+        self.observation_space = self.views.space
         self._action_shape = self.action_space.shape
         self._actions = self.scene.actions
         self._buffers = self.scene.buffers
@@ -323,7 +367,7 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
         self._renderer: Renderer | None = None
         self._window: HumanWindow | None = None
 
-    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+    def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         if self._needs_reset:
             raise error.ResetNeeded("Cannot call PenaltyBallsEnv.step() before reset()")
         # fast path: a float array of the right shape is copied straight into the kernel's buffer
@@ -334,11 +378,10 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
         info = self.scene.info(0)
         if self.render_mode == "human":
             self.render()
-        return self._obs[0].copy(), float(self._buffers.reward[0]), bool(self._buffers.success[0]), False, info
+        obs = self._obs[0].copy() if self._view is None else self._view.single(0)
+        return obs, float(self._buffers.reward[0]), bool(self._buffers.success[0]), False, info
 
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         seed = check_seed(seed)
         options = check_options(options, ("randomize",))
         super().reset(seed=seed)
@@ -346,7 +389,7 @@ class PenaltyBallsEnv(gym.Env[np.ndarray, np.ndarray]):
         self._needs_reset = False
         if self.render_mode == "human":
             self.render()
-        return self._obs[0].copy(), self.scene.info(0)
+        return self._obs[0].copy() if self._view is None else self._view.single(0), self.scene.info(0)
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:

@@ -16,6 +16,7 @@ from . import kernel as KE
 from .params import PARAMETERS, check_options, check_seed, coerce_action, render_fps
 from .render import Renderer
 from .scene import PenaltyBallsScene
+from .views import Views, pop_view_kwargs
 
 __all__ = ["PenaltyBallsVectorEnv"]
 
@@ -32,6 +33,13 @@ class PenaltyBallsVectorEnv(VectorEnv):
     its starts from its own generator, seeded ``seed + i`` by ``reset(seed=seed)``, so the
     episodes are exactly those of N single envs seeded ``seed + i`` (and of a ``SyncVectorEnv``
     of them, infos included). ``render()`` returns one frame per world.
+
+    ``obs_mode`` (``"state"``, ``"heightmap"``, ``"rgb"`` or a tuple of them, with
+    ``heightmap_cells``, ``heightmap_cell``, ``rgb_size``: :class:`PenaltyBallsEnv`'s "Observation
+    Space") is observed for the whole batch in one Numba call per mode after each step
+    (:class:`~.views.Views`); a ``Dict`` mode's batch is a dict of arrays with a leading world
+    axis, and ``SAME_STEP``'s ``final_obs`` holds each ended world's last observation in the
+    same mode.
     """
 
     metadata = {
@@ -63,9 +71,12 @@ class PenaltyBallsVectorEnv(VectorEnv):
             raise ValueError(
                 f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}"
             ) from None
+        view_kwargs = pop_view_kwargs(kwargs)
         self.scene = PenaltyBallsScene(
             V.integer("num_envs", num_envs, 1), dim=dim, owner="PenaltyBallsVectorEnv.__init__", **kwargs
         )
+        self.views = Views(self.scene, **view_kwargs)
+        self._view = None if self.views.is_state else self.views  # None: the state vector, as it is
         self.num_envs = self.scene.n_worlds
         self.dim = self.scene.dim
         self.max_episode_steps = int(max_episode_steps)
@@ -75,7 +86,7 @@ class PenaltyBallsVectorEnv(VectorEnv):
             self.metadata, render_fps=render_fps(self.scene.control_period), autoreset_mode=autoreset_mode
         )
         self.single_action_space = self.scene.action_space
-        self.single_observation_space = self.scene.observation_space
+        self.single_observation_space = self.views.space
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         N = self.num_envs
@@ -90,7 +101,7 @@ class PenaltyBallsVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ Gymnasium API
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
+    ) -> tuple[Any, dict[str, Any]]:
         N = self.num_envs
         options = check_options(options, ("reset_mask", "randomize"))
         if seed is None or isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_)):
@@ -121,9 +132,9 @@ class PenaltyBallsVectorEnv(VectorEnv):
         self._steps[idx] = 0
         self._done[idx] = False
         self._started = True
-        return self.scene.obs.copy(), self._infos(mask)
+        return self.scene.obs.copy() if self._view is None else self._view.observe(), self._infos(mask)
 
-    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    def step(self, actions: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
             raise error.ResetNeeded("Cannot call PenaltyBallsVectorEnv.step() before reset()")
         scene = self.scene
@@ -157,8 +168,13 @@ class PenaltyBallsVectorEnv(VectorEnv):
         if mode == AutoresetMode.SAME_STEP and done.any():
             idx = np.flatnonzero(done)
             final_obs = np.full(self.num_envs, None, dtype=object)
-            for i in idx:
-                final_obs[i] = scene.obs[i].copy()
+            if self._view is None:
+                for i in idx:
+                    final_obs[i] = scene.obs[i].copy()
+            else:
+                last = self._view.observe(idx)
+                for t, i in enumerate(idx):
+                    final_obs[i] = self._view.item(last, t)
             final_info = self._infos(done)
             scene.reset_worlds(idx, [self._rngs[i] for i in idx])
             self._steps[idx] = 0
@@ -169,7 +185,8 @@ class PenaltyBallsVectorEnv(VectorEnv):
         else:
             infos = self._infos(self._ones)
             self._done[:] = done
-        return scene.obs.copy(), rewards, terminated, truncated, infos
+        obs = scene.obs.copy() if self._view is None else self._view.observe()
+        return obs, rewards, terminated, truncated, infos
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         if self.render_mode is None:

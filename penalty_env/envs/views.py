@@ -1,0 +1,548 @@
+"""Observation modes of the PenaltyBalls envs: the state vector, a height map around the pusher,
+a small image, or several of them as a ``Dict``.
+
+:class:`Views` is built from a :class:`~.scene.PenaltyBallsScene` and an ``obs_mode``. It gives
+the single observation space (``space``) and fills the observations of a batch of worlds
+(``observe``): one Numba call per batch and mode, spread over threads for large batches as the
+scene's step is. The single env, the native vector env and the SB3 ``VecEnv`` all observe through
+it, so a world's observation does not depend on which env holds it.
+
+* ``"state"``: the scene's own observation vector, as the step kernel wrote it (the default; the
+  envs then keep their plain path and never call this module).
+* ``"heightmap"``: float32 ``(cells, cells)`` in 3D, ``(cells,)`` in 2D: cells of edge ``cell``
+  centred on the pusher, ``[i, j]`` at x = pusher x + (i - (cells - 1) / 2) cell (and y with j);
+  each the height above the bowl's lowest point of whatever is highest over the cell's centre:
+  the terrain there, or the top of any ball (pusher, ball, obstacles, grains) over it,
+  z + sqrt(r^2 - rho^2) at horizontal distance rho < r from the ball's centre. Clipped to
+  [0, 2R]. The terrain is the bowl (its closed form; solid, so the cap 2R, beyond its rim), the
+  arena (the floor at 0; the cap beyond the walls) or the bumpy ground (the height field's nodes,
+  bilinear, held at the edge beyond it, the bowl where that is higher).
+* ``"rgb"``: uint8 ``(size, size, 3)``: a top view (3D, x right, y up) or a side view (2D, x
+  right, z up) ``2 VIEW_HALF_WIDTH`` metres across, centred on the bowl's bottom, as the
+  renderer's frames are: the terrain's image (computed once per terrain, per world on the bumpy
+  ground and redrawn only when the world's ``terrain_version`` changes), the goal as a green
+  disc of the success radius, and every ball as a flat disc in its colour (the renderer's
+  palette), grains first, then the obstacles, the pusher and the ball on top. A ball outside the
+  view is drawn small at the border, as in the renderer.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+from gymnasium import spaces
+
+from .. import _validate as V
+from .._jit import compile_notice, entry_point, njit
+from ..physics.geometry.table import INDEX
+from ..physics.stepping import runner as _runner
+from .params import ARENA_HALF_WIDTH
+from .render import (
+    BALL_COLOR,
+    CONTOUR_STEP,
+    GOAL_COLOR,
+    GRAIN_COLOR,
+    LIGHT,
+    OBSTACLE_COLOR,
+    PUSHER_COLOR,
+    VIEW_HALF_WIDTH,
+)
+
+__all__ = ["Views", "OBS_MODES", "VIEW_PARAMETERS", "pop_view_kwargs", "check_obs_mode"]
+
+OBS_MODES = ("state", "heightmap", "rgb")
+
+# the views' keyword arguments: default, allowed range, meaning (the env docstring's table)
+VIEW_PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
+    "heightmap_cells": (16, 2, 64, "obs_mode 'heightmap': cells per horizontal axis"),
+    "heightmap_cell": (0.1, 0.01, 1.0, "obs_mode 'heightmap': cell edge, m"),
+    "rgb_size": (64, 16, 256, "obs_mode 'rgb': image width and height, pixels"),
+}
+
+# terrain kinds as the kernels read them
+_BOWL, _ARENA, _BUMPY = 0, 1, 2
+_KINDS = {"bowl": _BOWL, "arena": _ARENA, "bumpy": _BUMPY}
+# the colours as the kernels read them, 0..255
+_SAND = (0.90, 0.84, 0.70)
+_WALL = (0.52, 0.50, 0.48)
+_SKY_TOP, _SKY_LOW = (0.80, 0.88, 0.97), (0.96, 0.97, 0.99)
+_EARTH, _LINE = (0.60, 0.47, 0.32), (0.35, 0.25, 0.15)
+# threads: a batch is split when worlds x this reaches the runner's threshold (about 16 worlds
+# for an image, 64 for a height map)
+_RGB_WORK = 128
+_HEIGHTMAP_WORK = 32
+
+
+def check_obs_mode(obs_mode: Any) -> tuple[str, ...] | str:
+    """``obs_mode`` checked: one of :data:`OBS_MODES`, or a non-empty tuple or list of distinct
+    ones (returned as a tuple: a ``Dict`` observation). Anything else raises ValueError naming the
+    argument, the value and the allowed values."""
+    allowed = f"one of {OBS_MODES} or a non-empty tuple or list of distinct ones"
+    if isinstance(obs_mode, str):
+        if obs_mode not in OBS_MODES:
+            raise ValueError(f"obs_mode must be {allowed}, got {obs_mode!r}")
+        return obs_mode
+    if isinstance(obs_mode, (tuple, list)):
+        modes = tuple(obs_mode)
+        bad = [m for m in modes if not isinstance(m, str) or m not in OBS_MODES]
+        if not modes or bad or len(set(modes)) != len(modes):
+            what = f"unknown mode(s) {bad!r}" if bad else "empty" if not modes else "a mode repeated"
+            raise ValueError(f"obs_mode must be {allowed}, got {obs_mode!r} ({what})")
+        return modes
+    raise ValueError(f"obs_mode must be {allowed}, got {V.describe(obs_mode)} ({type(obs_mode).__name__})")
+
+
+def pop_view_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
+    """Take the views' keyword arguments (``obs_mode`` and :data:`VIEW_PARAMETERS`) out of an env's
+    ``kwargs`` (the rest are the scene's), checked (before the scene is built)."""
+    out = {k: kwargs.pop(k) for k in ("obs_mode", *VIEW_PARAMETERS) if k in kwargs}
+    if "obs_mode" in out:
+        out["obs_mode"] = check_obs_mode(out["obs_mode"])
+    for name in VIEW_PARAMETERS:
+        if name in out:
+            out[name] = _check_parameter(name, out[name])
+    return out
+
+
+def _check_parameter(name: str, value: Any) -> Any:
+    default, lo, hi, meaning = VIEW_PARAMETERS[name]
+    if isinstance(default, int):
+        return V.integer(name, value, lo, hi, meaning)
+    return V.in_range(name, value, lo, hi, meaning)
+
+
+class TerrainHeights(NamedTuple):
+    """The terrain's height z(x[, y]) as the kernels read it: its kind, the bowl's radius, the
+    arena's half width, the cap (the height of solid columns: beyond the bowl's rim, the arena's
+    walls), and the bumpy ground's height field (its node heights per world in ``heights``, from
+    column ``start``; ``nx`` x ``ny`` nodes, ``cell`` apart from ``origin``). Without a height field
+    ``heights`` is a (1, 1) placeholder."""
+
+    kind: int
+    radius: float
+    half_width: float
+    cap: float
+    heights: np.ndarray  # (B, m) float64: the World's height-field table
+    start: int
+    nx: int
+    ny: int
+    origin_x: float
+    origin_y: float
+    cell: float
+
+
+@njit(hot=True)
+def _terrain_height(b, x, y, t):
+    """The terrain's height at (x, y) of world b (2D: y = 0, and the field's ``ny`` is 1)."""
+    if t.kind == _ARENA:
+        if abs(x) > t.half_width or abs(y) > t.half_width:
+            return t.cap
+        return 0.0
+    R = t.radius
+    rho2 = x * x + y * y
+    if rho2 >= R * R:
+        return t.cap
+    h = R - math.sqrt(R * R - rho2)
+    if t.kind == _BUMPY:  # the field, held at its edge beyond the grid; the bowl where higher
+        u = min(max((x - t.origin_x) / t.cell, 0.0), t.nx - 1.0)
+        i = min(int(u), t.nx - 2)
+        fu = u - i
+        row = t.heights[b]
+        s = t.start
+        if t.ny == 1:
+            f = row[s + i] * (1.0 - fu) + row[s + i + 1] * fu
+        else:
+            v = min(max((y - t.origin_y) / t.cell, 0.0), t.ny - 1.0)
+            j = min(int(v), t.ny - 2)
+            fv = v - j
+            k = s + i * t.ny + j
+            f = (row[k] * (1.0 - fv) + row[k + 1] * fv) * (1.0 - fu) + (
+                row[k + t.ny] * (1.0 - fv) + row[k + t.ny + 1] * fv
+            ) * fu
+        h = max(h, f)
+    return h
+
+
+@njit(entry=True, nogil=True)
+def heightmap_worlds(worlds, out, x, radii, terrain, cells_y, cell, low, high):
+    """The height maps of ``worlds`` into ``out`` (one row per world, in order; ``(k, cells,
+    cells_y)``, ``cells_y`` 1 in 2D): cells of edge ``cell`` centred on the pusher (ball 0), each
+    the highest of the terrain at its centre and of every ball's top over it, clipped to [low,
+    high]. A ball with a non-finite coordinate is skipped."""
+    H = out.shape[1]
+    W = cells_y
+    D = x.shape[2]
+    n = x.shape[1]
+    half = 0.5 * (H - 1)
+    half_y = 0.5 * (W - 1)
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        cx = x[b, 0, 0]
+        cy = x[b, 0, 1] if D == 3 else 0.0
+        if not (np.isfinite(cx) and np.isfinite(cy)):
+            cx, cy = 0.0, 0.0
+        x0 = cx - half * cell  # the first cell's centre
+        y0 = cy - half_y * cell
+        for i in range(H):
+            for j in range(W):
+                out[t, i, j] = _terrain_height(b, x0 + i * cell, y0 + j * cell, terrain)
+        for k in range(n):
+            bx = x[b, k, 0]
+            by = x[b, k, 1] if D == 3 else 0.0
+            bz = x[b, k, D - 1]
+            r = radii[b, k]
+            if not (np.isfinite(bx) and np.isfinite(by) and np.isfinite(bz)):
+                continue
+            i0 = max(0, int(math.ceil((bx - r - x0) / cell)))
+            i1 = min(H - 1, int(math.floor((bx + r - x0) / cell)))
+            j0, j1 = 0, 0
+            if D == 3:
+                j0 = max(0, int(math.ceil((by - r - y0) / cell)))
+                j1 = min(W - 1, int(math.floor((by + r - y0) / cell)))
+            for i in range(i0, i1 + 1):
+                dx = x0 + i * cell - bx
+                for j in range(j0, j1 + 1):
+                    dy = y0 + j * cell - by if D == 3 else 0.0
+                    rho2 = dx * dx + dy * dy
+                    if rho2 < r * r:
+                        top = bz + math.sqrt(r * r - rho2)
+                        if top > out[t, i, j]:
+                            out[t, i, j] = top
+        for i in range(H):
+            for j in range(W):
+                out[t, i, j] = min(max(out[t, i, j], low), high)
+
+
+@njit(hot=True)
+def _put(img, t, py, px, r, g, b, alpha):
+    """Blend colour (r, g, b) (0..255) over pixel (py, px) of image t with opacity alpha."""
+    if alpha <= 0.0:
+        return
+    if alpha > 1.0:
+        alpha = 1.0
+    for c in range(3):
+        val = r if c == 0 else g if c == 1 else b
+        old = float(img[t, py, px, c])
+        img[t, py, px, c] = np.uint8(min(255.0, max(0.0, old + alpha * (val - old))) + 0.5)
+
+
+@njit(hot=True)
+def _disc(img, t, cx, cy, rad, r, g, b):
+    """A flat disc of radius ``rad`` pixels at (cx, cy) (pixel units, y down), antialiased at its
+    rim: a pixel whose centre lies within rad - 0.5 of (cx, cy) takes the colour exactly."""
+    S = img.shape[1]
+    x0 = max(0, int(cx - rad - 1.0))
+    x1 = min(S - 1, int(cx + rad + 1.0))
+    y0 = max(0, int(cy - rad - 1.0))
+    y1 = min(S - 1, int(cy + rad + 1.0))
+    for py in range(y0, y1 + 1):
+        dy = py + 0.5 - cy
+        for px in range(x0, x1 + 1):
+            dx = px + 0.5 - cx
+            _put(img, t, py, px, r, g, b, rad + 0.5 - math.sqrt(dx * dx + dy * dy))
+
+
+@njit(entry=True, nogil=True)
+def rgb_worlds(worlds, out, x, radii, colors, order, goal, goal_radius, backgrounds, background_of, scale, ground):
+    """The images of ``worlds`` into ``out`` (``(k, S, S, 3)`` uint8, one per world, in order):
+    world b's terrain image ``backgrounds[background_of[b]]``, the goal (a disc of
+    ``goal_radius`` m), then every ball as a disc of its colour (``colors``, 0..255), in the
+    order of ``order`` (the grains, the obstacles, the pusher, the ball: the last on top). 3D: top view, x
+    right, y up; 2D: side view, z up, z = 0 at pixel row ``ground``; ``scale`` pixels per metre,
+    x = 0 at the centre. A ball outside the image is drawn at a third of its size (at least 1.5 pixels) at the border."""
+    S = out.shape[1]
+    D = x.shape[2]
+    ox = 0.5 * S
+    oy = 0.5 * S if D == 3 else ground
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        bg = backgrounds[background_of[b]]
+        for py in range(S):
+            for px in range(S):
+                for c in range(3):
+                    out[t, py, px, c] = bg[py, px, c]
+        gx = ox + goal[b, 0] * scale
+        gy = oy - goal[b, 1] * scale  # (3D: y; 2D: z)
+        if np.isfinite(gx) and np.isfinite(gy):
+            _disc(
+                out,
+                t,
+                gx,
+                gy,
+                max(goal_radius * scale, 1.0),
+                255.0 * GOAL_COLOR[0],
+                255.0 * GOAL_COLOR[1],
+                255.0 * GOAL_COLOR[2],
+            )
+        for s in range(order.shape[0]):
+            k = order[s]
+            cx = ox + x[b, k, 0] * scale
+            cy = oy - x[b, k, 1] * scale
+            if not (np.isfinite(cx) and np.isfinite(cy)):
+                continue
+            rad = radii[b, k] * scale
+            if cx < 0.0 or cx >= S or cy < 0.0 or cy >= S:  # out of view: a small marker at the border
+                rad = max(1.5, rad / 3.0)
+                cx = min(max(cx, rad), S - rad)
+                cy = min(max(cy, rad), S - rad)
+            _disc(out, t, cx, cy, rad, colors[k, 0], colors[k, 1], colors[k, 2])
+
+
+@njit(hot=True)
+def _mix(a, b, w):
+    return a + (b - a) * w
+
+
+@njit(entry=True, nogil=True)
+def terrain_images(worlds, rows, dest, terrain, scale, ground, dim):
+    """The terrain images of ``worlds`` into ``dest[rows[t]]`` (``(K, S, S, 3)`` uint8): 3D a top
+    view (sand lit by the slope, steep faces and solid columns grey, contour lines every
+    CONTOUR_STEP of height); 2D a side view (sky above the ground line, earth below)."""
+    S = dest.shape[1]
+    lx, ly, lz = LIGHT
+    ln = math.sqrt(lx * lx + ly * ly + lz * lz)
+    lx, ly, lz = lx / ln, -ly / ln, lz / ln  # towards the light, world axes (image y is down)
+    e = 0.5 / scale  # half a pixel, for the slope
+    for t in range(worlds.shape[0]):
+        b = worlds[t]
+        q = rows[t]
+        for py in range(S):
+            for px in range(S):
+                X = (px + 0.5 - 0.5 * S) / scale
+                if dim == 3:
+                    Y = -(py + 0.5 - 0.5 * S) / scale
+                    h = _terrain_height(b, X, Y, terrain)
+                    gx = (_terrain_height(b, X + e, Y, terrain) - _terrain_height(b, X - e, Y, terrain)) / (2.0 * e)
+                    gy = (_terrain_height(b, X, Y + e, terrain) - _terrain_height(b, X, Y - e, terrain)) / (2.0 * e)
+                    nn = math.sqrt(gx * gx + gy * gy + 1.0)
+                    nx, ny, nz = -gx / nn, -gy / nn, 1.0 / nn
+                    lam = min(max(nx * lx + ny * ly + nz * lz, 0.0), 1.0)
+                    shade = min(max(0.78 + 2.5 * (lam - lz), 0.45), 1.1)
+                    wall = min(max((0.5 - nz) * 2.0, 0.0), 1.0)
+                    if h >= terrain.cap:
+                        wall = 1.0
+                    grad = max(math.sqrt(gx * gx + gy * gy), 1e-3)
+                    phase = h / CONTOUR_STEP
+                    near = abs(phase - math.floor(phase + 0.5)) * CONTOUR_STEP / grad * scale  # pixels to a contour
+                    line = min(max(1.0 - near, 0.0), 1.0) if (phase >= 0.5 and nz > 0.5) else 0.0
+                    for c in range(3):
+                        v = _mix(_SAND[c] * shade, _WALL[c], wall) * (1.0 - 0.18 * line)
+                        dest[q, py, px, c] = np.uint8(min(max(255.0 * v + 0.5, 0.0), 255.0))
+                else:
+                    Z = (ground - (py + 0.5)) / scale
+                    depth = (_terrain_height(b, X, 0.0, terrain) - Z) * scale  # pixels into the solid
+                    sky_w = min(max(Z / (2.0 * VIEW_HALF_WIDTH) + 0.2, 0.0), 1.0)
+                    solid = min(max(depth + 0.5, 0.0), 1.0)
+                    line = min(max(1.5 - abs(depth), 0.0), 1.0)
+                    dark = min(max(1.0 - 0.004 * depth, 0.6), 1.0)
+                    for c in range(3):
+                        v = _mix(_mix(_SKY_LOW[c], _SKY_TOP[c], sky_w), _EARTH[c] * dark, solid)
+                        v = _mix(v, _LINE[c], line)
+                        dest[q, py, px, c] = np.uint8(min(max(255.0 * v + 0.5, 0.0), 255.0))
+
+
+class Views:
+    """The observations of a scene's worlds in the mode ``obs_mode`` (see the module docstring).
+
+    Args:
+        scene: the :class:`~.scene.PenaltyBallsScene` observed.
+        obs_mode: ``"state"``, ``"heightmap"``, ``"rgb"``, or a tuple or list of them (a ``Dict``
+            observation keyed by mode).
+        heightmap_cells, heightmap_cell, rgb_size: :data:`VIEW_PARAMETERS`.
+
+    ``space`` is the single observation space; ``observe(worlds)`` the batch of the listed worlds
+    (an array with a leading world axis, or a dict of them); ``single(b)`` world b's alone.
+    """
+
+    def __init__(
+        self,
+        scene: Any,
+        obs_mode: Any = "state",
+        heightmap_cells: int = VIEW_PARAMETERS["heightmap_cells"][0],
+        heightmap_cell: float = VIEW_PARAMETERS["heightmap_cell"][0],
+        rgb_size: int = VIEW_PARAMETERS["rgb_size"][0],
+    ) -> None:
+        mode = check_obs_mode(obs_mode)
+        self.scene = scene
+        self.obs_mode = mode
+        self.modes: tuple[str, ...] = (mode,) if isinstance(mode, str) else mode
+        self.is_dict = not isinstance(mode, str)
+        self.is_state = mode == "state"
+        self.heightmap_cells: int = _check_parameter("heightmap_cells", heightmap_cells)
+        self.heightmap_cell: float = _check_parameter("heightmap_cell", heightmap_cell)
+        self.rgb_size: int = _check_parameter("rgb_size", rgb_size)
+        d = scene.dim
+        self.height_bound = 2.0 * scene.bowl_radius
+        H, S = self.heightmap_cells, self.rgb_size
+        self.heightmap_shape = (H, H) if d == 3 else (H,)
+        self.rgb_shape = (S, S, 3)
+        self.scale = S / (2.0 * VIEW_HALF_WIDTH)  # pixels per metre
+        self.ground = 0.8 * S  # 2D: the pixel row of z = 0
+        singles: dict[str, spaces.Space] = {
+            "state": scene.observation_space,
+            "heightmap": spaces.Box(0.0, np.float32(self.height_bound), self.heightmap_shape, dtype=np.float32),
+            "rgb": spaces.Box(0, 255, self.rgb_shape, dtype=np.uint8),
+        }
+        self.space: spaces.Space = (
+            spaces.Dict({m: singles[m] for m in self.modes}) if self.is_dict else singles[self.modes[0]]
+        )
+        self.terrain = self._terrain_heights()
+        self.colors = 255.0 * np.array(
+            [PUSHER_COLOR, BALL_COLOR] + [OBSTACLE_COLOR] * scene.n_obstacles + [GRAIN_COLOR] * scene.n_grains
+        )
+        # (B, n): each world's radii (a randomised scene's live rows, drawn at each reset; a fixed
+        # scene's, repeated: one kernel type for both)
+        rows = getattr(scene, "_radii_rows", None) if getattr(scene, "randomize", None) else None
+        self.radii = rows if rows is not None else np.ascontiguousarray(np.tile(scene.radii, (scene.n_worlds, 1)))
+        nb = scene.n_bodies  # drawn: the grains, the obstacles, the pusher, the ball (on top)
+        self.order = np.array([*range(nb, scene.n_balls), *range(2, nb), 0, 1], dtype=np.int64)
+        self._backgrounds: np.ndarray | None = None
+        self._kernels: dict[str, Any] = {}
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_kernels"] = {}  # compiled code: found again (cached) on first use after unpickling
+        return state
+
+    # ------------------------------------------------------------------ observing
+    def observe(self, worlds: Sequence[int] | np.ndarray | None = None) -> Any:
+        """The observations of ``worlds`` (default: every world), stacked in that order: one array
+        with a leading axis, or (a ``Dict`` mode) a dict of them keyed by mode. Fresh arrays."""
+        idx = self.scene._all if worlds is None else np.ascontiguousarray(worlds, dtype=np.int64)
+        out = {m: self._observe(m, idx) for m in self.modes}
+        return out if self.is_dict else out[self.modes[0]]
+
+    def single(self, b: int) -> Any:
+        """World b's observation (no world axis)."""
+        return self.item(self.observe(np.array([b], dtype=np.int64)), 0)
+
+    def item(self, batch: Any, t: int) -> Any:
+        """Row t of a batch from :meth:`observe` (a copy)."""
+        if self.is_dict:
+            return {m: batch[m][t].copy() for m in self.modes}
+        return batch[t].copy()
+
+    def _observe(self, mode: str, idx: np.ndarray) -> np.ndarray:
+        scene = self.scene
+        k = idx.size
+        if mode == "state":
+            return scene.obs[idx]
+        x = scene.world.runner.physics.x
+        if mode == "heightmap":
+            H = self.heightmap_cells
+            W = H if scene.dim == 3 else 1
+            hm = np.empty((k, H, W), dtype=np.float32)
+            tail = (x, self.radii, self._current_terrain(), W, self.heightmap_cell, 0.0, self.height_bound)
+            self._dispatch("heightmap", heightmap_worlds, idx, hm, tail, _HEIGHTMAP_WORK)
+            return hm if scene.dim == 3 else hm.reshape(k, H)
+        backgrounds, background_of = self._terrain_images(idx)
+        img = np.empty((k,) + self.rgb_shape, dtype=np.uint8)
+        tail = (
+            x,
+            self.radii,
+            self.colors,
+            self.order,
+            scene.goal,
+            scene.goal_tolerance,
+            backgrounds,
+            background_of,
+            self.scale,
+            self.ground,
+        )
+        self._dispatch("rgb", rgb_worlds, idx, img, tail, _RGB_WORK)
+        return img
+
+    def _dispatch(self, name: str, fn: Any, idx: np.ndarray, out: np.ndarray, tail: tuple, work: int) -> None:
+        """``fn(worlds, out rows, *tail)`` over the batch, split over threads when it is large."""
+        chunks = _runner.split(idx, work) if idx.size > 1 else [idx]
+        calls, start = [], 0
+        for c in chunks:
+            calls.append((c, out[start : start + c.size]) + tail)
+            start += c.size
+        kernel = self._kernels.get(name)
+        if kernel is None:
+            with compile_notice(f"{name} observation"):
+                kernel = self._kernels[name] = entry_point(fn, calls[0])
+        _runner.dispatch(kernel, calls)
+
+    # ------------------------------------------------------------------ the terrain
+    def _terrain_heights(self) -> TerrainHeights:
+        """The terrain as :func:`_terrain_height` reads it (the bumpy field's heights are the
+        World's own table, read at every call: ``_current_terrain``)."""
+        s = self.scene
+        kind = _KINDS[s.terrain_kind]
+        fields = dict(
+            kind=kind,
+            radius=float(s.bowl_radius),
+            half_width=float(ARENA_HALF_WIDTH),
+            cap=self.height_bound,
+            heights=np.zeros((1, 1)),
+            start=0,
+            nx=2,
+            ny=1 if s.dim == 2 else 2,
+            origin_x=0.0,
+            origin_y=0.0,
+            cell=1.0,
+        )
+        if kind == _BUMPY:
+            field = s.world.terrain[0]
+            nx, ny = field.grid_shape
+            table = s.world._model.shapes
+            fields.update(
+                start=int(table.shape[s.world._rows[0], INDEX]),
+                nx=int(nx),
+                ny=int(ny),
+                origin_x=float(field.origin[0]),
+                origin_y=float(field.origin[1]) if s.dim == 3 else 0.0,
+                cell=float(field.cell_size[0]),
+            )
+        return TerrainHeights(**fields)
+
+    def _current_terrain(self) -> TerrainHeights:
+        if self.terrain.kind != _BUMPY:
+            return self.terrain
+        return self.terrain._replace(heights=self.scene.world._model.shapes.heights)
+
+    def _terrain_images(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The terrain images and each world's row in them: one image for the bowl and the arena
+        (the same in every world), one per world on the bumpy ground, redrawn for the worlds of
+        ``idx`` whose ``terrain_version`` changed since it was drawn."""
+        s = self.scene
+        S = self.rgb_size
+        per_world = self.terrain.kind == _BUMPY
+        if self._backgrounds is None:
+            count = s.n_worlds if per_world else 1
+            self._backgrounds = np.zeros((count, S, S, 3), dtype=np.uint8)
+            self._background_of = np.arange(s.n_worlds, dtype=np.int64) if per_world else np.zeros(s.n_worlds, np.int64)
+            self._drawn = np.full(s.n_worlds, -1, dtype=np.int64)  # the terrain version drawn per world
+            if not per_world:
+                self._draw(np.zeros(1, dtype=np.int64))
+                self._drawn[:] = 0
+        if per_world:
+            stale = idx[s.terrain_version[idx] != self._drawn[idx]]
+            if stale.size:
+                self._draw(stale)
+                self._drawn[stale] = s.terrain_version[stale]
+        return self._backgrounds, self._background_of
+
+    def _draw(self, worlds: np.ndarray) -> None:
+        rows = self._background_of[worlds]
+        tail = (self._current_terrain(), self.scale, self.ground, self.scene.dim)
+        assert self._backgrounds is not None
+        calls = [(c, rows[c0 : c0 + c.size], self._backgrounds) + tail for c0, c in self._chunked(worlds)]
+        kernel = self._kernels.get("terrain")
+        if kernel is None:
+            with compile_notice("terrain image"):
+                kernel = self._kernels["terrain"] = entry_point(terrain_images, calls[0])
+        _runner.dispatch(kernel, calls)
+
+    def _chunked(self, worlds: np.ndarray) -> list[tuple[int, np.ndarray]]:
+        chunks = _runner.split(worlds, _RGB_WORK * 8) if worlds.size > 1 else [worlds]
+        out, start = [], 0
+        for c in chunks:
+            out.append((start, c))
+            start += c.size
+        return out
