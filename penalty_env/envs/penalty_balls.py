@@ -18,7 +18,7 @@ from .params import CHOICE_PARAMETERS, PARAMETERS, check_options, check_seed, co
 from .render import HumanWindow, Renderer
 from .scene import PenaltyBallsScene
 from .vector import MAX_EPISODE_STEPS, PenaltyBallsVectorEnv
-from .views import Views, pop_view_kwargs
+from .views import OBS_MODES, Views, pop_view_kwargs
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS", "SAND_V1_EPISODE_STEPS"]
 
@@ -346,6 +346,7 @@ class PenaltyBallsEnv(gym.Env[Any, np.ndarray]):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": render_fps(PARAMETERS["control_period"][0])}
+    OBS_MODES = OBS_MODES  # obs_mode's values (the env pages list each one's space)
 
     def __init__(self, dim: int = 3, render_mode: str | None = None, **kwargs: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:

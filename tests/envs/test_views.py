@@ -88,7 +88,6 @@ def test_heightmap_of_a_ball_on_the_flat_arena_is_its_top(dim):
     assert hm.max() == np.float32(2 * r_ball)
 
 
-
 def test_height_map_and_image_draw_each_worlds_drawn_radii():
     """A randomised scene's balls are drawn at their world's drawn radius (not the make-time one)."""
     venv = gym.make_vec(
