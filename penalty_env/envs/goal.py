@@ -58,13 +58,18 @@ def _check_reward(reward: Any) -> str:
     return V.choice("reward", reward, REWARD_TYPES)
 
 
-def _goal_spaces(scene: PenaltyBallsScene) -> tuple[spaces.Dict, slice, slice]:
-    """The Dict observation space of one world and the base observation's ball and goal slices."""
-    if scene.n_grains:
+def _refuse_sand(kwargs: dict[str, Any]) -> None:
+    """Refuse ``grains`` other than 0 before any scene is built (a bed of sand settles then)."""
+    grains = kwargs.get("grains", 0)
+    if isinstance(grains, (bool, np.bool_)) or grains != 0:
         raise ValueError(
             f"grains must be 0 for the goal-conditioned envs (with sand the goal is reached horizontally, "
-            f"which a goal of the ball's centre does not express), got {scene.n_grains}"
+            f"which a goal of the ball's centre does not express), got {grains!r}"
         )
+
+
+def _goal_spaces(scene: PenaltyBallsScene) -> tuple[spaces.Dict, slice, slice]:
+    """The Dict observation space of one world and the base observation's ball and goal slices."""
     layout = scene.layout
     ball, goal = layout.slice("ball position"), layout.slice("goal position")
     low, high = layout.low.astype(np.float32), layout.high.astype(np.float32)
@@ -184,6 +189,7 @@ class PenaltyBallsGoalEnv(_GoalReward, PenaltyBallsEnv):
 
     def __init__(self, dim: int = 3, render_mode: str | None = None, reward: str = "sparse", **kwargs: Any) -> None:
         self.reward_type = _check_reward(reward)
+        _refuse_sand(kwargs)
         super().__init__(dim=dim, render_mode=render_mode, **kwargs)
         # a Dict where the base env has a Box (the override's reason for the ignores below)
         self.observation_space, self._ball, self._goal = _goal_spaces(self.scene)  # type: ignore[assignment]
@@ -238,6 +244,7 @@ class PenaltyBallsGoalVectorEnv(_GoalReward, PenaltyBallsVectorEnv):
         **kwargs: Any,
     ) -> None:
         self.reward_type = _check_reward(reward)
+        _refuse_sand(kwargs)
         super().__init__(
             num_envs=num_envs,
             dim=dim,

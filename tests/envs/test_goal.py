@@ -211,6 +211,8 @@ def test_bad_input_is_refused_with_a_clear_error():
         gym.make_vec("PenaltyBallsGoal-v0", num_envs=2, reward=1)
     with pytest.raises(ValueError, match="grains must be 0"):
         PenaltyBallsGoalEnv(dim=2, grains=10, physics="rolling")
+    with pytest.raises(ValueError, match="grains must be 0"):
+        PenaltyBallsGoalVectorEnv(2, grains=300)
     env = gym.make("PenaltyBallsGoal-v0").unwrapped
     with pytest.raises(ValueError, match=r"achieved_goal must have shape \(\.\.\., 3\).*\(4, 2\)"):
         env.compute_reward(np.zeros((4, 2)), np.zeros((4, 3)), None)
