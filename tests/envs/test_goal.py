@@ -168,6 +168,22 @@ def test_vector_env_worlds_equal_single_envs_seeded_seed_plus_i(env_id, mode):
     assert successes >= 2 and ends > successes
 
 
+def test_disabled_autoreset_with_a_reset_mask_equals_sync_vector_env():
+    mode = AutoresetMode.DISABLED
+    native = gym.make_vec("PenaltyBallsGoal-v0", num_envs=3, autoreset_mode=mode, max_episode_steps=20)
+    twin = _sync_twin("PenaltyBallsGoal-v0", 3, mode, max_episode_steps=20)
+    assert data_equivalence(native.reset(seed=3), twin.reset(seed=3), exact=True)
+    acts = np.full((3, 2), 0.3, np.float32)
+    for t in range(20):
+        assert data_equivalence(native.step(acts), twin.step(acts), exact=True), f"step {t}"
+    with pytest.raises(RuntimeError, match="reset_mask"):
+        native.step(acts)
+    mask = np.array([True, False, True])
+    a = native.reset(options={"reset_mask": mask})
+    b = twin.reset(options={"reset_mask": mask.copy()})
+    assert data_equivalence(a, b, exact=True)
+
+
 def test_sb3_her_replay_buffer_trains_sac_through_compute_reward():
     sb3 = pytest.importorskip("stable_baselines3")
     from stable_baselines3.common.env_util import make_vec_env
