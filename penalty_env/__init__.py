@@ -65,3 +65,24 @@ for _id, _dim, _steps in (("PenaltySandLevel-v0", 3, 300), ("PenaltySandLevel2D-
             max_episode_steps=_steps,
             kwargs={"dim": _dim},
         )
+
+# Goal-conditioned variants of v0 and v1 (penalty_env.envs.goal): a Dict observation with
+# observation / achieved_goal / desired_goal, a sparse reward by default, compute_reward for HER.
+_GOAL_ENVS = "penalty_env.envs.goal"
+warnings.filterwarnings(
+    "ignore", message=r".*The environment PenaltyBallsGoal(2D)?-v0 is out of date", category=DeprecationWarning
+)
+for _id, _dim, _physics in (
+    ("PenaltyBallsGoal-v0", 3, "sliding"),
+    ("PenaltyBallsGoal2D-v0", 2, "sliding"),
+    ("PenaltyBallsGoal-v1", 3, "rolling"),
+    ("PenaltyBallsGoal2D-v1", 2, "rolling"),
+):
+    if _id not in registry:
+        register(
+            id=_id,
+            entry_point=f"{_GOAL_ENVS}:PenaltyBallsGoalEnv",
+            vector_entry_point=f"{_GOAL_ENVS}:PenaltyBallsGoalVectorEnv",
+            max_episode_steps=_MAX_EPISODE_STEPS,
+            kwargs={"dim": _dim} if _physics == "sliding" else {"dim": _dim, "physics": _physics},
+        )

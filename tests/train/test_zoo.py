@@ -23,8 +23,9 @@ def test_zoo_file_is_the_tuned_table():
 
     import penalty_env  # noqa: F401
 
-    registered = {k for k in gym.registry if k.startswith("Penalty")}
-    assert set(entries) == registered  # one entry per registered id
+    # one entry per registered id (the goal-conditioned ids train with SAC + HER: train/train_her.py)
+    registered = {k for k in gym.registry if k.startswith("Penalty") and not k.startswith("PenaltyBallsGoal")}
+    assert set(entries) == registered
     for env_id, entry in entries.items():
         s = _tuned.TUNED[env_id]
         assert entry["n_envs"] == s["n_envs"] and entry["n_steps"] == s["n_steps"]

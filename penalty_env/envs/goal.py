@@ -1,0 +1,390 @@
+"""Goal-conditioned PenaltyBalls: the same worlds, observed and rewarded as Gymnasium-Robotics'
+goal-conditioned tasks (a ``Dict`` observation with ``observation``, ``achieved_goal`` and
+``desired_goal``; a sparse reward; ``compute_reward`` for hindsight relabelling).
+
+:class:`PenaltyBallsGoalEnv` is the single env (``PenaltyBallsGoal-v0`` and its siblings) and
+:class:`PenaltyBallsGoalVectorEnv` its native vector twin (all worlds in one Numba call). Both
+drive the base task's :class:`~penalty_env.envs.scene.PenaltyBallsScene` unchanged: only the
+observation is regrouped and the reward, success and termination are recomputed from it, so
+the physics, the starts and the random draws are the base ids' own.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import error, spaces
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from .. import _validate as V
+from . import kernel as KE
+from .params import check_options, coerce_action
+from .penalty_balls import PenaltyBallsEnv
+from .scene import PenaltyBallsScene
+from .vector import MAX_EPISODE_STEPS, PenaltyBallsVectorEnv
+
+__all__ = ["PenaltyBallsGoalEnv", "PenaltyBallsGoalVectorEnv", "REWARD_TYPES", "goal_distance"]
+
+REWARD_TYPES = ("sparse", "dense")
+
+
+GOAL_FIELDS = ("goal position", "goal - ball")  # the base observation's fields that hold the goal
+
+
+def goal_distance(achieved_goal: Any, desired_goal: Any, dim: int) -> np.ndarray:
+    """The Euclidean distance between ``achieved_goal`` and ``desired_goal`` over their last axis
+    (length ``dim``), in float64, for any batch shape ``(..., dim)`` (the two broadcast).
+
+    The sum of squares runs axis by axis, element-wise, so every batch shape gives each distance
+    by the same arithmetic, bit for bit (a reduction such as ``np.linalg.norm`` may change its
+    summation order with the array's shape and memory layout)."""
+    a = V.real_array("achieved_goal", achieved_goal)
+    b = V.real_array("desired_goal", desired_goal)
+    for name, arr in (("achieved_goal", a), ("desired_goal", b)):
+        if arr.ndim == 0 or arr.shape[-1] != dim:
+            raise ValueError(f"{name} must have shape (..., {dim}) (a goal is {dim} coordinates), got {arr.shape}")
+    try:
+        diff = a - b
+    except ValueError:
+        raise ValueError(
+            f"achieved_goal and desired_goal must broadcast together, got shapes {a.shape} and {b.shape}"
+        ) from None
+    sq = diff[..., 0] * diff[..., 0]
+    for k in range(1, dim):
+        sq = sq + diff[..., k] * diff[..., k]
+    return np.sqrt(sq)
+
+
+def _check_reward(reward: Any) -> str:
+    return V.choice("reward", reward, REWARD_TYPES)
+
+
+def _refuse_sand(kwargs: dict[str, Any]) -> None:
+    """Refuse ``grains`` other than 0 before any scene is built (a bed of sand settles then)."""
+    grains = kwargs.get("grains", 0)
+    if isinstance(grains, (bool, np.bool_)) or grains != 0:
+        raise ValueError(
+            f"grains must be 0 for the goal-conditioned envs (with sand the goal is reached horizontally, "
+            f"which a goal of the ball's centre does not express), got {grains!r}"
+        )
+
+
+def _goal_spaces(scene: PenaltyBallsScene, observe_goal: bool) -> tuple[spaces.Dict, np.ndarray, slice, slice]:
+    """The Dict observation space of one world, the base observation's entries that ``observation``
+    keeps (all of them with ``observe_goal``; else all but the goal's fields, "goal position" and
+    "goal - ball"), and its ball and goal slices."""
+    layout = scene.layout
+    ball, goal = layout.slice("ball position"), layout.slice("goal position")
+    entries = np.arange(layout.size)
+    if not observe_goal:
+        drop = np.concatenate([entries[layout.slice(name)] for name in GOAL_FIELDS])
+        entries = np.setdiff1d(entries, drop)
+    low, high = layout.low.astype(np.float32), layout.high.astype(np.float32)
+    space = spaces.Dict(
+        {
+            "observation": spaces.Box(low[entries], high[entries], dtype=np.float32),
+            "achieved_goal": spaces.Box(low[ball], high[ball], dtype=np.float32),
+            "desired_goal": spaces.Box(low[goal], high[goal], dtype=np.float32),
+        }
+    )
+    return space, entries, ball, goal
+
+
+def _check_obs_mode(kwargs: dict[str, Any]) -> None:
+    """The goal envs observe the state vector only (the goals are fields of it)."""
+    mode = kwargs.get("obs_mode", "state")
+    if mode != "state":
+        raise ValueError(
+            f"obs_mode must be 'state' for the goal-conditioned envs (achieved_goal and desired_goal are "
+            f"fields of the state vector), got {mode!r}"
+        )
+
+
+class _GoalReward:
+    """The reward and success shared by the single and the vector env (set by their ``__init__``:
+    ``dim``, ``goal_tolerance``, ``reward_type``)."""
+
+    dim: int
+    goal_tolerance: float
+    reward_type: str
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any = None) -> np.ndarray:
+        """The reward of reaching ``achieved_goal`` when ``desired_goal`` was asked, for any batch
+        shape ``(..., d)`` (the two broadcast), as float64 of shape ``(...)`` (a numpy scalar for
+        a single pair): sparse, ``-1.0`` while the distance is at least ``goal_tolerance`` and
+        ``0.0`` within it; dense, ``-distance``. The distance is computed in float64 from the
+        (float32) goals. ``info`` is not read (it may be
+        a dict, a list or array of dicts, or None). The step's reward is this function of the
+        very arrays the step returns, so the two are equal bit for bit."""
+        distance = goal_distance(achieved_goal, desired_goal, self.dim)
+        if self.reward_type == "sparse":
+            return -(distance >= self.goal_tolerance).astype(np.float64)
+        return -distance
+
+    def is_success(self, achieved_goal: Any, desired_goal: Any) -> np.ndarray:
+        """``distance < goal_tolerance``, by ``compute_reward``'s arithmetic (bool, shape ``(...)``)."""
+        return goal_distance(achieved_goal, desired_goal, self.dim) < self.goal_tolerance
+
+
+class PenaltyBallsGoalEnv(_GoalReward, PenaltyBallsEnv):
+    """
+    ## Description
+
+    The goal-conditioned form of `PenaltyBalls-v0` and `-v1` (`PenaltyBallsGoal-v0`,
+    `PenaltyBallsGoal2D-v0`, `PenaltyBallsGoal-v1`, `PenaltyBallsGoal2D-v1`), in the convention
+    of Gymnasium-Robotics' goal-conditioned tasks, for hindsight experience replay (HER). The
+    task, its physics and its starts are those of the base env (`PenaltyBallsEnv`, whose
+    docstring documents them): a motor-driven pusher must push a ball onto a goal in a bowl.
+    Only the observation is regrouped into a `Dict`, and the reward, success and termination are
+    recomputed from that observation by `compute_reward`.
+
+    ## Action Space
+
+    The base env's: `Box(-1, 1, (d - 1,), float32)`, one motor throttle per horizontal axis.
+
+    ## Observation Space
+
+    `Dict` of three float32 `Box`es:
+
+    | Key | Shape | Value | Bounds |
+    |---|---|---|---|
+    | `observation` | `(5 d + 2 d n_obstacles,)` | the base env's observation without its two goal fields, "goal position" and "goal - ball" (all of it, `(7 d + 2 d n_obstacles,)`, with `observe_goal=True`) | the base env's, for the fields kept |
+    | `achieved_goal` | `(d,)` | the ball's centre (the base observation's "ball position") | the base layout's for that field |
+    | `desired_goal` | `(d,)` | the goal (the base observation's "goal position": a resting ball's centre there) | the base layout's for that field |
+
+    Both goals are positions relative to the bowl's lowest point, the last axis up.
+
+    `observation` leaves the goal out, as in Gymnasium-Robotics' tasks: HER relabels a stored
+    transition's `desired_goal` but keeps its `observation`, whose goal fields would then describe
+    the episode's own goal and contradict the relabelled one (docs/training.md, "Goal-conditioned
+    tasks and HER", has the runs with and without it).
+
+    ## Rewards
+
+    `compute_reward(achieved_goal, desired_goal, info)` on the step's own `achieved_goal` and
+    `desired_goal`, so the step's reward and a relabelled one are computed alike, bit for bit.
+    `distance` is the Euclidean distance of the two goals, computed in float64 from their float32
+    values.
+
+    | `reward` | Value per step |
+    |---|---|
+    | `"sparse"` (default) | `-1.0` while `distance >= goal_tolerance`, `0.0` once within it |
+    | `"dense"` | `-distance` |
+
+    `compute_reward` takes goals of any batch shape `(..., d)` and returns a float64 array of
+    shape `(...)`; it does not read `info`. `info` holds the base env's keys (its `distance`,
+    in float64 from the physics state, and its reward terms), with `is_success` replaced by this
+    env's success: `distance < goal_tolerance` by `compute_reward`'s arithmetic.
+
+    ## Starting State
+
+    The base env's, draw for draw: the same seed gives the same start.
+
+    ## Episode End
+
+    1. Termination: `info["is_success"]`, the ball's centre within `goal_tolerance` (0.1 m) of
+       the goal. The goals are the float32 values the observation holds, where the base env
+       tests its own success on the float64 state: the two agree except when the distance is
+       within float32 rounding (about 1e-7 m) of the tolerance, where this env's answer is the
+       one that holds (the reward, the success and the termination always agree with each other).
+    2. Truncation: 150 steps, as the base ids (the registered `max_episode_steps`).
+
+    ## Arguments
+
+    `gymnasium.make("PenaltyBallsGoal-v0", render_mode=None, reward="sparse", **kwargs)`:
+    `reward` is `"sparse"` or `"dense"` (anything else raises `ValueError`); `observe_goal`
+    (default False) keeps the goal's fields in `observation`; `obs_mode` must stay `"state"`;
+    every other keyword
+    is the base env's (its docstring's table), except the sand's: `grains` must stay 0 (with
+    sand the base task's goal is reached horizontally, which a goal of the ball's centre does not
+    express).
+
+    ## Vectorized environment
+
+    `gymnasium.make_vec("PenaltyBallsGoal-v0", num_envs=N)` returns
+    :class:`PenaltyBallsGoalVectorEnv`: all N worlds stepped in one Numba call, with the same
+    episodes as N single envs seeded `seed + i`.
+
+    ## Version History
+
+    * v0: the goal-conditioned form of `PenaltyBalls-v0` (3D) and `PenaltyBalls2D-v0`.
+    * v1: the goal-conditioned form of `PenaltyBalls-v1` and `PenaltyBalls2D-v1` (the balls roll).
+    """
+
+    OBS_MODES = ("state",)
+
+    def __init__(
+        self,
+        dim: int = 3,
+        render_mode: str | None = None,
+        reward: str = "sparse",
+        observe_goal: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        self.reward_type = _check_reward(reward)
+        self.observe_goal = V.flag("observe_goal", observe_goal)
+        _refuse_sand(kwargs)
+        _check_obs_mode(kwargs)
+        super().__init__(dim=dim, render_mode=render_mode, **kwargs)
+        # a Dict where the base env has a Box (the override's reason for the ignores below)
+        self.observation_space, self._entries, self._ball, self._goal = _goal_spaces(  # type: ignore[assignment]
+            self.scene, self.observe_goal
+        )
+        self.goal_tolerance = float(self.scene.goal_tolerance)
+
+    def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
+        return {
+            "observation": obs[self._entries],
+            "achieved_goal": obs[self._ball].copy(),
+            "desired_goal": obs[self._goal].copy(),
+        }
+
+    def step(  # type: ignore[override]
+        self, action: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        if self._needs_reset:
+            raise error.ResetNeeded("Cannot call PenaltyBallsGoalEnv.step() before reset()")
+        obs, _, _, truncated, info = super().step(action)
+        goal_obs = self._goal_obs(obs)
+        achieved, desired = goal_obs["achieved_goal"], goal_obs["desired_goal"]
+        reward = float(self.compute_reward(achieved, desired, info))
+        success = bool(self.is_success(achieved, desired))
+        info["is_success"] = success
+        return goal_obs, reward, success, truncated, info
+
+    def reset(  # type: ignore[override]
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        obs, info = super().reset(seed=seed, options=options)
+        goal_obs = self._goal_obs(obs)
+        info["is_success"] = bool(self.is_success(goal_obs["achieved_goal"], goal_obs["desired_goal"]))
+        return goal_obs, info
+
+
+class PenaltyBallsGoalVectorEnv(_GoalReward, PenaltyBallsVectorEnv):
+    """N goal-conditioned PenaltyBalls worlds stepped together (one Numba call per step): the
+    native vector twin of :class:`PenaltyBallsGoalEnv`, as :class:`PenaltyBallsVectorEnv` is the
+    base env's.
+
+    The same keywords as :class:`PenaltyBallsVectorEnv` plus ``reward``. Observations are a
+    ``Dict`` of ``(N, ...)`` arrays; rewards, ``terminated`` and ``info["is_success"]`` are the
+    goal env's, computed for all worlds at once by ``compute_reward``. World i's episodes are
+    those of the single env seeded ``seed + i`` (and of Gymnasium's ``SyncVectorEnv`` of them, in
+    each autoreset mode; with ``SAME_STEP``, ``info["final_obs"]`` holds each ended world's last
+    observation as a ``Dict``).
+    """
+
+    OBS_MODES = ("state",)
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        dim: int = 3,
+        max_episode_steps: int = MAX_EPISODE_STEPS,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        reward: str = "sparse",
+        observe_goal: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        self.reward_type = _check_reward(reward)
+        self.observe_goal = V.flag("observe_goal", observe_goal)
+        _refuse_sand(kwargs)
+        _check_obs_mode(kwargs)
+        super().__init__(
+            num_envs=num_envs,
+            dim=dim,
+            max_episode_steps=max_episode_steps,
+            render_mode=render_mode,
+            autoreset_mode=autoreset_mode,
+            **kwargs,
+        )
+        self.single_observation_space, self._entries, self._ball, self._goal = _goal_spaces(
+            self.scene, self.observe_goal
+        )
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.goal_tolerance = float(self.scene.goal_tolerance)
+
+    def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
+        """The Dict observation of the worlds' rows ``obs`` (N, size), as fresh arrays."""
+        return {"observation": obs[:, self._entries], "achieved_goal": obs[:, self._ball], "desired_goal": obs[:, self._goal]}
+
+    def reset(  # type: ignore[override]
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        opts = check_options(options, ("reset_mask", "randomize"))
+        mask = opts.get("reset_mask")
+        obs, infos = super().reset(seed=seed, options=options)
+        goal_obs = self._goal_obs(obs)
+        success = self.is_success(goal_obs["achieved_goal"], goal_obs["desired_goal"])
+        if mask is not None:
+            success &= mask
+        infos["is_success"] = success
+        return goal_obs, infos
+
+    def step(  # type: ignore[override]
+        self, actions: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        # The base vector env's step, with the goal env's success as the termination (which
+        # decides the autoresets) and its reward.
+        if not self._started:
+            raise error.ResetNeeded("Cannot call PenaltyBallsGoalVectorEnv.step() before reset()")
+        scene = self.scene
+        shape = (self.num_envs, scene.action_size)
+        if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.kind != "f":
+            actions = coerce_action(actions, shape)
+        mode = self.autoreset_mode
+        resetting = self._done.copy() if mode == AutoresetMode.NEXT_STEP else None
+        if mode == AutoresetMode.DISABLED and self._done.any():
+            raise RuntimeError(
+                f"world(s) {np.flatnonzero(self._done)[:10].tolist()} ended their episode; with "
+                f"autoreset_mode DISABLED, reset them (reset(options={{'reset_mask': mask}})) before stepping"
+            )
+        scene.actions[:] = actions
+        b = KE.first_bad_action(scene.actions, resetting if resetting is not None else self._never)
+        if b >= 0:  # refuse before any world moves or resets
+            raise ValueError(f"the action of world {b} contains NaN or inf: {scene.actions[b].tolist()}")
+        if resetting is not None and resetting.any():
+            idx = np.flatnonzero(resetting)
+            scene.reset_worlds(idx, [self._rngs[i] for i in idx], observe=False)  # stepped as "just reset"
+            scene.step()
+            scene.stepping[idx] = True
+            self._steps[idx] = -1  # += 1 below
+        else:
+            scene.step()
+        self._steps += 1
+        goal_obs = self._goal_obs(scene.obs)
+        achieved, desired = goal_obs["achieved_goal"], goal_obs["desired_goal"]
+        rewards = self.compute_reward(achieved, desired, None)
+        success = self.is_success(achieved, desired)
+        terminated = success.copy()
+        if resetting is not None and resetting.any():  # as SyncVectorEnv: a reset step's reward is 0
+            rewards[resetting] = 0.0
+            terminated[resetting] = False
+        truncated = self._steps >= self.max_episode_steps
+        done = terminated | truncated
+        if mode == AutoresetMode.SAME_STEP and done.any():
+            idx = np.flatnonzero(done)
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i in idx:
+                final_obs[i] = {key: value[i].copy() for key, value in goal_obs.items()}
+            final_info = self._infos(done)
+            final_info["is_success"] = terminated & done
+            scene.reset_worlds(idx, [self._rngs[i] for i in idx])
+            self._steps[idx] = 0
+            goal_obs = self._goal_obs(scene.obs)
+            infos = self._infos(self._ones)
+            infos["is_success"] = self.is_success(goal_obs["achieved_goal"], goal_obs["desired_goal"])
+            infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
+            infos["final_info"], infos["_final_info"] = final_info, done.copy()
+            self._done[:] = False
+        else:
+            infos = self._infos(self._ones)
+            infos["is_success"] = success  # a world just reset: its reset's
+            self._done[:] = done
+        return goal_obs, rewards, terminated, truncated, infos
+
+    def __repr__(self) -> str:
+        return f"PenaltyBallsGoalVectorEnv({self.spec.id if self.spec else f'{self.dim}D'}, num_envs={self.num_envs})"
