@@ -228,10 +228,8 @@ class PenaltyBallsGoalEnv(_GoalReward, PenaltyBallsEnv):
         _refuse_sand(kwargs)
         _check_obs_mode(kwargs)
         super().__init__(dim=dim, render_mode=render_mode, **kwargs)
-        # a Dict where the base env has a Box (the override's reason for the ignores below)
-        self.observation_space, self._entries, self._ball, self._goal = _goal_spaces(  # type: ignore[assignment]
-            self.scene, self.observe_goal
-        )
+        # a Dict where the base env has a Box
+        self.observation_space, self._entries, self._ball, self._goal = _goal_spaces(self.scene, self.observe_goal)
         self.goal_tolerance = float(self.scene.goal_tolerance)
 
     def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
@@ -241,9 +239,7 @@ class PenaltyBallsGoalEnv(_GoalReward, PenaltyBallsEnv):
             "desired_goal": obs[self._goal].copy(),
         }
 
-    def step(  # type: ignore[override]
-        self, action: np.ndarray
-    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         if self._needs_reset:
             raise error.ResetNeeded("Cannot call PenaltyBallsGoalEnv.step() before reset()")
         obs, _, _, truncated, info = super().step(action)
@@ -254,7 +250,7 @@ class PenaltyBallsGoalEnv(_GoalReward, PenaltyBallsEnv):
         info["is_success"] = success
         return goal_obs, reward, success, truncated, info
 
-    def reset(  # type: ignore[override]
+    def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         obs, info = super().reset(seed=seed, options=options)
@@ -309,9 +305,13 @@ class PenaltyBallsGoalVectorEnv(_GoalReward, PenaltyBallsVectorEnv):
 
     def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
         """The Dict observation of the worlds' rows ``obs`` (N, size), as fresh arrays."""
-        return {"observation": obs[:, self._entries], "achieved_goal": obs[:, self._ball], "desired_goal": obs[:, self._goal]}
+        return {
+            "observation": obs[:, self._entries],
+            "achieved_goal": obs[:, self._ball],
+            "desired_goal": obs[:, self._goal],
+        }
 
-    def reset(  # type: ignore[override]
+    def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         opts = check_options(options, ("reset_mask", "randomize"))
@@ -324,7 +324,7 @@ class PenaltyBallsGoalVectorEnv(_GoalReward, PenaltyBallsVectorEnv):
         infos["is_success"] = success
         return goal_obs, infos
 
-    def step(  # type: ignore[override]
+    def step(
         self, actions: np.ndarray
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         # The base vector env's step, with the goal env's success as the termination (which

@@ -346,7 +346,7 @@ class PenaltyBallsEnv(gym.Env[Any, np.ndarray]):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": render_fps(PARAMETERS["control_period"][0])}
-    OBS_MODES = OBS_MODES  # obs_mode's values (the env pages list each one's space)
+    OBS_MODES: tuple[str, ...] = OBS_MODES  # obs_mode's values (the env pages list each one's space)
 
     def __init__(self, dim: int = 3, render_mode: str | None = None, **kwargs: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
