@@ -100,7 +100,10 @@ class PenaltyBallsVecEnv(VecEnv):
     def reset(self) -> VecEnvObs:
         for i, options in enumerate(self._options):
             if options:
-                raise ValueError(f"PenaltyBalls accepts no reset options, got {options!r} for env {i}")
+                raise ValueError(
+                    f"PenaltyBallsVecEnv takes no reset options (the Gymnasium envs take options['randomize']), "
+                    f"got {options!r} for env {i}"
+                )
         for i, seed in enumerate(self._seeds):
             if seed is not None or self._rngs[i] is None:
                 self._rngs[i] = seeding.np_random(seed)[0]

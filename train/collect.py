@@ -55,6 +55,7 @@ def trained_policy(run: Path) -> tuple[Policy, dict[str, Any], tuple[int, ...]]:
     """The deterministic policy of a ``train_ppo.py`` run folder, for single observations; the
     run's summary (``env_id``, ``env_kwargs``); and the observation shape the policy takes. The
     observations are normalised with the run's saved statistics, frozen, as ``evaluate.py`` does."""
+    from gymnasium import spaces
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -64,6 +65,11 @@ def trained_policy(run: Path) -> tuple[Policy, dict[str, Any], tuple[int, ...]]:
             raise ValueError(f"--policy must be a run folder of train_ppo.py with {name}, got {str(run)!r}")
     summary = json.loads((run / "summary.json").read_text())
     model = PPO.load(run / "model.zip", device="cpu")
+    if not isinstance(model.observation_space, spaces.Box):
+        raise ValueError(
+            f"the policy of {str(run)!r} observes a {type(model.observation_space).__name__} "
+            f"({model.observation_space}); collect.py records policies of a Box observation (the state vector)"
+        )
     vecnorm = None
     if (run / "vecnormalize.pkl").is_file():
         probe = C.make_env(summary["env_id"], 1, 0, summary.get("env_kwargs", {}))

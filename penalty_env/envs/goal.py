@@ -264,7 +264,7 @@ class PenaltyBallsGoalVectorEnv(_GoalReward, PenaltyBallsVectorEnv):
     native vector twin of :class:`PenaltyBallsGoalEnv`, as :class:`PenaltyBallsVectorEnv` is the
     base env's.
 
-    The same keywords as :class:`PenaltyBallsVectorEnv` plus ``reward``. Observations are a
+    The same keywords as :class:`PenaltyBallsVectorEnv` plus ``reward`` and ``observe_goal``. Observations are a
     ``Dict`` of ``(N, ...)`` arrays; rewards, ``terminated`` and ``info["is_success"]`` are the
     goal env's, computed for all worlds at once by ``compute_reward``. World i's episodes are
     those of the single env seeded ``seed + i`` (and of Gymnasium's ``SyncVectorEnv`` of them, in
