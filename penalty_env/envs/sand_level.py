@@ -782,7 +782,7 @@ class PenaltySandLevelVectorEnv(VectorEnv):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         N = self.num_envs
         options = _check_options(options, ("reset_mask", "target"))
-        if isinstance(seed, (list, tuple)):
+        if isinstance(seed, (list, tuple, np.ndarray)):
             seeds = [check_seed(s) for s in seed]
             if len(seeds) != N:
                 raise ValueError(f"seed must be None, an int or a list of {N} seeds, got {len(seeds)}")
@@ -805,7 +805,7 @@ class PenaltySandLevelVectorEnv(VectorEnv):
         self._steps[idx] = 0
         self._done[idx] = False
         self._started = True
-        return self.scene.obs.copy(), self._infos()
+        return self.scene.obs.copy(), self._infos(mask)
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
@@ -837,9 +837,12 @@ class PenaltySandLevelVectorEnv(VectorEnv):
             return None
         return tuple(self.scene.frame(b) for b in range(self.num_envs))
 
-    def _infos(self) -> dict[str, Any]:
+    def _infos(self, mask: np.ndarray | None = None) -> dict[str, Any]:
+        """Gymnasium's vector info dict: one array per key and its ``_key`` mask (``mask``: the
+        worlds just reset, after a reset with ``options["reset_mask"]``; the others' entries are
+        zero and masked out, as ``SyncVectorEnv`` reports them)."""
         s = self.scene
-        ones = np.ones(self.num_envs, dtype=np.bool_)
+        present = np.ones(self.num_envs, dtype=np.bool_) if mask is None else mask.copy()
         infos: dict[str, Any] = {}
         for key, value in (
             ("error", s.error.copy()),
@@ -847,8 +850,9 @@ class PenaltySandLevelVectorEnv(VectorEnv):
             ("grains_lost", s.grains_lost.copy()),
             ("is_success", s.success.copy()),
         ):
+            value[~present] = 0
             infos[key] = value
-            infos["_" + key] = ones
+            infos["_" + key] = present
         return infos
 
     def __repr__(self) -> str:

@@ -186,6 +186,22 @@ def test_vector_env_autoresets_on_the_next_step():
     np.testing.assert_array_equal(info["error"], info["initial_error"])
 
 
+def test_a_masked_reset_reports_only_the_worlds_it_reset():
+    """As Gymnasium's SyncVectorEnv: after reset(options={"reset_mask": m}) the info keys' masks
+    are m (the other worlds' entries zero); a numpy array of seeds is taken like a list."""
+    venv = gym.make_vec("PenaltySandLevel2D-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    obs, info = venv.reset(seed=np.array([4, 5, 6]))
+    assert info["_error"].all()
+    first = obs.copy()
+    mask = np.array([False, True, False])
+    obs, info = venv.reset(seed=[None, 5, None], options={"reset_mask": mask})
+    for key in ("error", "initial_error", "grains_lost", "is_success"):
+        np.testing.assert_array_equal(info["_" + key], mask)
+        assert not np.any(info[key][~mask])
+    assert info["error"][1] > 0.0
+    np.testing.assert_array_equal(obs[1], first[1])  # the same seed, the same start
+
+
 def test_random_targets_keep_the_volume_and_a_given_target_is_used():
     env = gym.make("PenaltySandLevel2D-v0", target="random")
     scene = env.unwrapped.scene
