@@ -19,8 +19,6 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from .. import _validate as V
-from . import kernel as KE
-from .params import check_options, coerce_action
 from .penalty_balls import PenaltyBallsEnv
 from .scene import PenaltyBallsScene
 from .vector import MAX_EPISODE_STEPS, PenaltyBallsVectorEnv
@@ -311,80 +309,33 @@ class PenaltyBallsGoalVectorEnv(_GoalReward, PenaltyBallsVectorEnv):
             "desired_goal": obs[:, self._goal],
         }
 
-    def reset(
-        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        opts = check_options(options, ("reset_mask", "randomize"))
-        mask = opts.get("reset_mask")
-        obs, infos = super().reset(seed=seed, options=options)
-        goal_obs = self._goal_obs(obs)
-        success = self.is_success(goal_obs["achieved_goal"], goal_obs["desired_goal"])
-        if mask is not None:
-            success &= mask
-        infos["is_success"] = success
-        return goal_obs, infos
-
-    def step(
-        self, actions: np.ndarray
-    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        # The base vector env's step, with the goal env's success as the termination (which
-        # decides the autoresets) and its reward.
-        if not self._started:
-            raise error.ResetNeeded("Cannot call PenaltyBallsGoalVectorEnv.step() before reset()")
-        scene = self.scene
-        shape = (self.num_envs, scene.action_size)
-        if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.kind != "f":
-            actions = coerce_action(actions, shape)
-        mode = self.autoreset_mode
-        resetting = self._done.copy() if mode == AutoresetMode.NEXT_STEP else None
-        if mode == AutoresetMode.DISABLED and self._done.any():
-            raise RuntimeError(
-                f"world(s) {np.flatnonzero(self._done)[:10].tolist()} ended their episode; with "
-                f"autoreset_mode DISABLED, reset them (reset(options={{'reset_mask': mask}})) before stepping"
-            )
-        scene.actions[:] = actions
-        b = KE.first_bad_action(scene.actions, resetting if resetting is not None else self._never)
-        if b >= 0:  # refuse before any world moves or resets
-            raise ValueError(f"the action of world {b} contains NaN or inf: {scene.actions[b].tolist()}")
-        if resetting is not None and resetting.any():
-            idx = np.flatnonzero(resetting)
-            scene.reset_worlds(idx, [self._rngs[i] for i in idx], observe=False)  # stepped as "just reset"
-            scene.step()
-            scene.stepping[idx] = True
-            self._steps[idx] = -1  # += 1 below
-        else:
-            scene.step()
-        self._steps += 1
-        goal_obs = self._goal_obs(scene.obs)
+    # the base step's parts that differ (the stepping and the autoresets are the base env's)
+    def _outcome(self, reset: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """The goal env's reward and termination, for all worlds at once (a world just ``reset``:
+        0 and False, as ``SyncVectorEnv`` reports a reset step)."""
+        goal_obs = self._goal_obs(self.scene.obs)
         achieved, desired = goal_obs["achieved_goal"], goal_obs["desired_goal"]
         rewards = self.compute_reward(achieved, desired, None)
-        success = self.is_success(achieved, desired)
-        terminated = success.copy()
-        if resetting is not None and resetting.any():  # as SyncVectorEnv: a reset step's reward is 0
-            rewards[resetting] = 0.0
-            terminated[resetting] = False
-        truncated = self._steps >= self.max_episode_steps
-        done = terminated | truncated
-        if mode == AutoresetMode.SAME_STEP and done.any():
-            idx = np.flatnonzero(done)
-            final_obs = np.full(self.num_envs, None, dtype=object)
-            for i in idx:
-                final_obs[i] = {key: value[i].copy() for key, value in goal_obs.items()}
-            final_info = self._infos(done)
-            final_info["is_success"] = terminated & done
-            scene.reset_worlds(idx, [self._rngs[i] for i in idx])
-            self._steps[idx] = 0
-            goal_obs = self._goal_obs(scene.obs)
-            infos = self._infos(self._ones)
-            infos["is_success"] = self.is_success(goal_obs["achieved_goal"], goal_obs["desired_goal"])
-            infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
-            infos["final_info"], infos["_final_info"] = final_info, done.copy()
-            self._done[:] = False
-        else:
-            infos = self._infos(self._ones)
-            infos["is_success"] = success  # a world just reset: its reset's
-            self._done[:] = done
-        return goal_obs, rewards, terminated, truncated, infos
+        terminated = self.is_success(achieved, desired)
+        if reset is not None:
+            rewards[reset] = 0.0
+            terminated[reset] = False
+        return rewards, terminated
+
+    def _observe(self) -> dict[str, np.ndarray]:
+        return self._goal_obs(self.scene.obs)
+
+    def _final_obs(self, idx: np.ndarray) -> list[Any]:
+        goal_obs = self._goal_obs(self.scene.obs[idx])
+        return [{key: value[t] for key, value in goal_obs.items()} for t in range(idx.size)]
+
+    def _infos(self, mask: np.ndarray) -> dict[str, Any]:
+        """The base env's infos with this env's success (of the worlds' current observations;
+        a world just reset: its start's)."""
+        infos = super()._infos(mask)
+        goal_obs = self._goal_obs(self.scene.obs)
+        infos["is_success"] = self.is_success(goal_obs["achieved_goal"], goal_obs["desired_goal"]) & mask
+        return infos
 
     def __repr__(self) -> str:
         return f"PenaltyBallsGoalVectorEnv({self.spec.id if self.spec else f'{self.dim}D'}, num_envs={self.num_envs})"

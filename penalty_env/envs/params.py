@@ -241,8 +241,9 @@ def max_grains(dim: int, grain_radius: float, bowl_radius: float, terrain: str) 
     return int(room * (SAND_PACKING if dim == 3 else 0.8) / grain)
 
 
-def check_options(options: Any, allowed: tuple[str, ...] = ()) -> dict[str, Any]:
-    """``options`` as a dict: None or a mapping with string keys, each one of ``allowed``."""
+def check_options(options: Any, allowed: tuple[str, ...] = (), owner: str = "PenaltyBalls") -> dict[str, Any]:
+    """``options`` as a dict: None or a mapping with string keys, each one of ``allowed`` (``owner``:
+    the env named in the error)."""
     if options is None:
         return {}
     if not isinstance(options, Mapping):
@@ -252,7 +253,7 @@ def check_options(options: Any, allowed: tuple[str, ...] = ()) -> dict[str, Any]
     unknown = [k for k in options if k not in allowed]
     if unknown:
         raise ValueError(
-            f"options has unknown key(s) {', '.join(map(repr, unknown))}; PenaltyBalls accepts "
+            f"options has unknown key(s) {', '.join(map(repr, unknown))}; {owner} accepts "
             f"{', '.join(map(repr, allowed)) or 'none'}"
         )
     return dict(options)

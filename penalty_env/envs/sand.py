@@ -13,7 +13,7 @@ from .._results import cached
 from ..physics import World
 from .params import ARENA_HALF_WIDTH, SAND_LATTICE, SAND_MAX_DEPTH, SAND_SETTLE_SPEED, SAND_SETTLE_TIME
 
-__all__ = ["SandScene", "settled_bed"]
+__all__ = ["SandScene", "settled_bed", "settle", "remembered_bed"]
 
 
 class SandScene:
@@ -128,16 +128,7 @@ def settled_bed(scene: Any) -> np.ndarray:
         scene.kd_terrain,
         scene.kf,
     ) + tuple(p[k] for k in keys)
-    known = _BEDS.get(key)
-    if known is None:  # made once per process, and kept on disk for later ones (penalty_env._results)
-        known = _BEDS[key] = cached("sand_bed", key, lambda: _settle(scene))
-        if not known[2] < SAND_SETTLE_SPEED:
-            warnings.warn(
-                f"the sand bed ({p['grains']} grains) still moves at {known[2]:.3g} m/s after {known[1]:.3g} s of "
-                f"settling (the limit is {SAND_SETTLE_SPEED:g} m/s): episodes start from a bed that has not come to rest",
-                RuntimeWarning,
-                stacklevel=3,
-            )
+    known = remembered_bed(_BEDS, "sand_bed", key, lambda: _settle(scene), f"the sand bed ({p['grains']} grains)")
     bed, scene.settle_time, scene.settle_speed = known
     bed.flags.writeable = False  # (shared by every scene of the configuration)
     return bed
@@ -156,15 +147,41 @@ def _settle(scene: Any) -> tuple[np.ndarray, float, float]:
     # (the lattice holds the grains apart: no start check)
     lattice = scene.grain_lattice()
     world = World(lattice, scene.radii[g:], scene.masses[g:], dt=scene.dt, start_check=False, **kw, **common)
-    chunk = max(1, int(round(0.25 / scene.dt)))
-    t = 0.0
-    speed = math.inf
-    while t < SAND_SETTLE_TIME[1]:
+    return settle(world, scene.dt, SAND_SETTLE_TIME, SAND_SETTLE_SPEED)
+
+
+def settle(world: Any, dt: float, times: tuple[float, float], speed: float) -> tuple[np.ndarray, float, float]:
+    """Step ``world`` (one world of grains, stepping ``dt``) a quarter second at a time, for at least
+    ``times[0]`` and until no ball moves faster than ``speed`` (at most ``times[1]``): (its positions,
+    read-only; the time it settled; its fastest ball's last speed)."""
+    chunk = max(1, int(round(0.25 / dt)))
+    t, fastest = 0.0, math.inf
+    while t < times[1]:
         world.step(chunk)
-        t += chunk * scene.dt
-        speed = float(np.sqrt(np.max(np.sum(world.velocities**2, axis=-1))))
-        if t >= SAND_SETTLE_TIME[0] and speed < SAND_SETTLE_SPEED:
+        t += chunk * dt
+        fastest = float(np.sqrt(np.max(np.sum(world.velocities**2, axis=-1))))
+        if t >= times[0] and fastest < speed:
             break
     bed = np.array(world.positions)
     bed.flags.writeable = False
-    return bed, t, speed
+    return bed, t, fastest
+
+
+def remembered_bed(
+    store: dict, name: str, key: tuple, make: Any, what: str, speed: float = SAND_SETTLE_SPEED
+) -> tuple[np.ndarray, float, float]:
+    """A settled bed ``make()`` (see :func:`settle`) made once per configuration ``key``: per
+    process in ``store``, and on disk for later processes (:func:`penalty_env._results.cached`,
+    under ``name``). A bed whose fastest grain still moves at ``speed`` or more warns, naming
+    ``what``."""
+    known = store.get(key)
+    if known is None:
+        known = store[key] = cached(name, key, make)
+        if not known[2] < speed:
+            warnings.warn(
+                f"{what} still moves at {known[2]:.3g} m/s after {known[1]:.3g} s of settling (the limit is "
+                f"{speed:g} m/s): episodes start from a bed that has not come to rest",
+                RuntimeWarning,
+                stacklevel=4,
+            )
+    return known

@@ -132,11 +132,49 @@ class PenaltyBallsVectorEnv(VectorEnv):
         self._steps[idx] = 0
         self._done[idx] = False
         self._started = True
-        return self.scene.obs.copy() if self._view is None else self._view.observe(), self._infos(mask)
+        return self._observe(), self._infos(mask)
 
     def step(self, actions: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
-            raise error.ResetNeeded("Cannot call PenaltyBallsVectorEnv.step() before reset()")
+            raise error.ResetNeeded(f"Cannot call {type(self).__name__}.step() before reset()")
+        scene = self.scene
+        mode = self.autoreset_mode
+        reset = self._advance(actions)
+        rewards, terminated = self._outcome(reset)
+        truncated = self._steps >= self.max_episode_steps
+        done = terminated | truncated
+        if mode == AutoresetMode.SAME_STEP and done.any():
+            idx = np.flatnonzero(done)
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i, last in zip(idx, self._final_obs(idx)):
+                final_obs[i] = last
+            final_info = self._infos(done)
+            scene.reset_worlds(idx, [self._rngs[i] for i in idx])
+            self._steps[idx] = 0
+            infos = self._infos(self._ones)
+            infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
+            infos["final_info"], infos["_final_info"] = final_info, done.copy()
+            self._done[:] = False
+        else:
+            infos = self._infos(self._ones)
+            self._done[:] = done
+        return self._observe(), rewards, terminated, truncated, infos
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        if self.render_mode is None:
+            logger.warn('You are calling render without a render mode; pass render_mode="rgb_array" to make_vec.')
+            return None
+        if self._renderer is None:
+            p = self.scene.params
+            self._renderer = Renderer(self.scene, p["render_width"], p["render_height"])
+        return tuple(self._renderer.frame(b) for b in range(self.num_envs))
+
+    # ------------------------------------------------------------------ the step's parts
+    # (the goal-conditioned twin, :class:`.goal.PenaltyBallsGoalVectorEnv`, replaces the outcome,
+    # the observation and the infos' success; the stepping and the autoresets are these)
+    def _advance(self, actions: np.ndarray) -> np.ndarray | None:
+        """Check the actions, reset the worlds whose episode ended (``NEXT_STEP``: they are
+        observed, not stepped) and step the others. Returns the worlds reset here, or None."""
         scene = self.scene
         shape = (self.num_envs, scene.action_size)
         if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.kind != "f":
@@ -152,50 +190,33 @@ class PenaltyBallsVectorEnv(VectorEnv):
         b = KE.first_bad_action(scene.actions, self._done if resetting is not None else self._never)
         if b >= 0:  # refuse before any world moves or resets
             raise ValueError(f"the action of world {b} contains NaN or inf: {scene.actions[b].tolist()}")
+        reset = None
         if resetting is not None and resetting.any():
-            idx = np.flatnonzero(resetting)
-            scene.reset_worlds(idx, [self._rngs[i] for i in idx], observe=False)  # stepped as "just reset"
+            reset = np.flatnonzero(resetting)
+            scene.reset_worlds(reset, [self._rngs[i] for i in reset], observe=False)  # stepped as "just reset"
             scene.step()
-            scene.stepping[idx] = True
-            self._steps[idx] = -1  # += 1 below
+            scene.stepping[reset] = True
+            self._steps[reset] = -1  # += 1 below
         else:
             scene.step()
         self._steps += 1
-        terminated = scene.buffers.success.copy()
-        truncated = self._steps >= self.max_episode_steps
-        rewards = scene.buffers.reward.copy()
-        done = terminated | truncated
-        if mode == AutoresetMode.SAME_STEP and done.any():
-            idx = np.flatnonzero(done)
-            final_obs = np.full(self.num_envs, None, dtype=object)
-            if self._view is None:
-                for i in idx:
-                    final_obs[i] = scene.obs[i].copy()
-            else:
-                last = self._view.observe(idx)
-                for t, i in enumerate(idx):
-                    final_obs[i] = self._view.item(last, t)
-            final_info = self._infos(done)
-            scene.reset_worlds(idx, [self._rngs[i] for i in idx])
-            self._steps[idx] = 0
-            infos = self._infos(self._ones)
-            infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
-            infos["final_info"], infos["_final_info"] = final_info, done.copy()
-            self._done[:] = False
-        else:
-            infos = self._infos(self._ones)
-            self._done[:] = done
-        obs = scene.obs.copy() if self._view is None else self._view.observe()
-        return obs, rewards, terminated, truncated, infos
+        return reset
 
-    def render(self) -> tuple[np.ndarray, ...] | None:
-        if self.render_mode is None:
-            logger.warn('You are calling render without a render mode; pass render_mode="rgb_array" to make_vec.')
-            return None
-        if self._renderer is None:
-            p = self.scene.params
-            self._renderer = Renderer(self.scene, p["render_width"], p["render_height"])
-        return tuple(self._renderer.frame(b) for b in range(self.num_envs))
+    def _outcome(self, reset: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """(rewards, terminated) of the step (a world just ``reset``: 0 and False, the scene's)."""
+        buf = self.scene.buffers
+        return buf.reward.copy(), buf.success.copy()
+
+    def _observe(self) -> Any:
+        """Every world's observation, fresh arrays."""
+        return self.scene.obs.copy() if self._view is None else self._view.observe()
+
+    def _final_obs(self, idx: np.ndarray) -> list[Any]:
+        """The last observation of each world in ``idx``, one object per world."""
+        if self._view is None:
+            return [self.scene.obs[i].copy() for i in idx]
+        last = self._view.observe(idx)
+        return [self._view.item(last, t) for t in range(idx.size)]
 
     # ------------------------------------------------------------------ helpers
     def _infos(self, mask: np.ndarray) -> dict[str, Any]:

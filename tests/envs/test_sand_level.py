@@ -18,6 +18,7 @@ from gymnasium.utils.env_checker import check_env
 
 import penalty_env  # noqa: F401
 from penalty_env.envs import level_kernel as LK
+from penalty_env.envs import level_scene as LS
 from penalty_env.envs import sand_level as SL
 from penalty_env.envs.scripted import RasterSweep
 
@@ -81,12 +82,12 @@ def test_flat_target_holds_the_beds_volume(env_id):
     obs, info = env.reset(seed=0)
     scene = env.unwrapped.scene
     d, n = scene.dim, scene.n_grains
-    volume = 4.0 / 3.0 * math.pi * SL.GRAIN_RADIUS**3 if d == 3 else math.pi * SL.GRAIN_RADIUS**2
-    area = (2.0 * SL.HALF_WIDTH) ** (d - 1)
-    assert scene.flat_level == pytest.approx(n * volume / (SL.PACKING[d] * area), rel=1e-12)
+    volume = 4.0 / 3.0 * math.pi * LS.GRAIN_RADIUS**3 if d == 3 else math.pi * LS.GRAIN_RADIUS**2
+    area = (2.0 * LS.HALF_WIDTH) ** (d - 1)
+    assert scene.flat_level == pytest.approx(n * volume / (LS.PACKING[d] * area), rel=1e-12)
     C = scene.n_cells
     np.testing.assert_array_equal(obs[C : 2 * C], np.float32(scene.flat_level))
-    assert scene.maps[0].max() < SL.MAP_TOP  # (no clipping)
+    assert scene.maps[0].max() < LS.MAP_TOP  # (no clipping)
     assert scene.maps[0].mean() == pytest.approx(scene.flat_level, rel=1e-12)
     assert info["error"] == pytest.approx(np.sqrt(np.mean((scene.maps[0] - scene.flat_level) ** 2)), rel=1e-12)
 
@@ -111,7 +112,7 @@ def test_grains_and_volume_conserved_under_an_aggressive_blade(env_id):
         x = np.asarray(scene.world.positions).reshape(-1, n, d)[0]
         assert info["grains_lost"] == 0
         assert np.all(np.isfinite(x)) and np.all(np.isfinite(obs))
-        assert np.all(np.abs(x[:, :-1]) < SL.HALF_WIDTH) and np.all(x[:, -1] > 0.0)
+        assert np.all(np.abs(x[:, :-1]) < LS.HALF_WIDTH) and np.all(x[:, -1] > 0.0)
         # the map's sum is the grains' volume: conserved while no cell reaches the clip
         assert scene.maps[0].sum() == pytest.approx(volume, rel=1e-9)
         assert env.observation_space.contains(obs)
@@ -131,7 +132,7 @@ def test_rewards_telescope_to_the_error_decrease(env_id):
         obs, r, term, trunc, info = env.step(policy(obs))
         total += r
         done = term or trunc
-    assert total == pytest.approx(SL.REWARD_SCALE * (e0 - info["error"]), rel=1e-9, abs=1e-9)
+    assert total == pytest.approx(LS.REWARD_SCALE * (e0 - info["error"]), rel=1e-9, abs=1e-9)
     # terminated exactly when the error fell below the documented fraction of the initial error
     fraction = env.unwrapped.scene.success_fraction
     assert term == info["is_success"] == (info["error"] < fraction * e0)
@@ -211,7 +212,7 @@ def test_random_targets_keep_the_volume_and_a_given_target_is_used():
         t = scene.targets[0].copy()
         assert t.mean() == pytest.approx(scene.flat_level, rel=1e-12)
         spread = (np.abs(t - scene.flat_level).max()) / scene.flat_level
-        assert SL.TARGET_AMPLITUDE[0] - 1e-12 <= spread <= SL.TARGET_AMPLITUDE[1] + 1e-12
+        assert LS.TARGET_AMPLITUDE[0] - 1e-12 <= spread <= LS.TARGET_AMPLITUDE[1] + 1e-12
         drawn.append(t)
     assert len({tuple(np.round(t, 12)) for t in drawn}) == len(drawn)
     given = np.linspace(0.05, 0.3, scene.n_cells)
@@ -230,9 +231,9 @@ def test_settled_heap_is_no_steeper_than_the_repose_angle():
     from penalty_env.bench.granular.pile import profile_angle
 
     scene = SL.SandLevelScene(1, dim=3)
-    assert (SL.GRAIN_FRICTION, SL.GRAIN_ROLLING) == (0.5, 0.1)
-    assert scene.settle_speed < SL.SETTLE_SPEED
-    d = 2.0 * SL.GRAIN_RADIUS
+    assert (LS.GRAIN_FRICTION, LS.GRAIN_ROLLING) == (0.5, 0.1)
+    assert scene.settle_speed < LS.SETTLE_SPEED
+    d = 2.0 * LS.GRAIN_RADIUS
     x = np.asarray(scene.bed) / d
     angle, (rho, h), _ = profile_angle(x, np.full(len(x), 0.5), np.zeros(2), 3, 1.0)
     assert angle <= 26.1 + 1.5

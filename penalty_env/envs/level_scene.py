@@ -1,0 +1,518 @@
+"""The PenaltySandLevel scene: B worlds of the sand-shaping task over one batched physics ``World``
+(the walled arena, the heap of grains settled once per configuration, the kinematic blade, the
+height maps and the targets), and the task's constants. The envs in :mod:`.sand_level` drive it.
+
+Units are SI (metres, kilograms, seconds). The last axis is up.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from .. import _validate as V
+from ..physics import Box, Plane, World
+from ..physics.configure import configure
+from . import level_kernel as LK
+from .sand import remembered_bed, settle
+
+__all__ = ["SandLevelScene", "LEVEL_PARAMETERS", "LEVEL_EPISODE_STEPS", "settled_heap"]
+
+# ----------------------------------------------------------------------------------------------
+# The task's constants (the env docstring's tables)
+# ----------------------------------------------------------------------------------------------
+HALF_WIDTH = 1.0  # the arena's walls stand this far from the centre, m
+GRAIN_RADIUS = 0.06  # m
+GRAIN_MASS = 0.5  # kg (PenaltyBallsSand-v1's grains)
+GRAIN_FRICTION = 0.5  # Coulomb mu of every contact (grains, floor, walls, blade)
+GRAIN_ROLLING = 0.1  # rolling resistance mu_r (docs/granular.md section 2: a heap stands)
+GRAVITY = 9.81
+BLADE_HALF = {3: (0.03, 0.25, 0.25), 2: (0.03, 0.25)}  # the blade box's half extents (x, [y,] z), m
+WALL_GAP = 0.1  # the blade's faces stay this far from the walls, m
+MAP_TOP = 1.0  # the height map's and the target's upper bound, m
+PACKING = {3: 0.6, 2: 0.82}  # the height map's nominal solid fraction (a loose random packing)
+BLADE_FLOOR = 2.0 * 0.06 + 0.01  # the blade's bottom never goes below one grain layer plus 1 cm, m
+MAX_LEVEL = 0.4  # the grains' flat level may be at most this deep, m
+BLADE_LIFT = GRAIN_RADIUS  # the blade's bottom rides this far above the target surface (a bed's grain tops stand about a radius above its depth), m
+REWARD_SCALE = 100.0  # reward per metre of decrease of the height-map error (1 per cm)
+HEAP_SLOPE = 35.0  # the grains start on a lattice cone of this slope (degrees), then settle
+HEAP_LATTICE = 2.1  # ... its sites this many radii apart (jittered by 5% of a radius)
+SETTLE_TIME = (15.0, 40.0)  # the heap settles for at least / at most this much simulated time, s
+SETTLE_SPEED = 0.005  # ... until no grain moves faster than this, m/s
+TARGET_AMPLITUDE = (0.25, 0.5)  # target="random": the relief's half range, x the flat level (uniform)
+LEVEL_EPISODE_STEPS = {3: 300, 2: 150}  # the registered ids' episode length (25 s and 15 s)
+
+# keyword arguments: default (3D, 2D), allowed range, meaning
+LEVEL_PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
+    "grains": ((250, 24), 1, 2000, "grains in the heap"),
+    "cells": ((10, 20), 2, 64, "height-map cells per horizontal axis"),
+    "blade_speed": (0.5, 0.05, 1.0, "the blade's top speed per horizontal axis, m/s"),
+    "control_period": (0.1, 0.02, 0.25, "simulated seconds per env step"),
+    "success_fraction": (
+        (0.5, 0.7),
+        0.05,
+        1.0,
+        "success: the error falls below this fraction of the episode's initial error",
+    ),
+}
+TARGETS = ("flat", "random")
+
+
+def _parameters(dim: Any, params: dict[str, Any], owner: str) -> dict[str, Any]:
+    """Validated keyword arguments with their defaults (ValueError naming the argument, its value
+    and its range; TypeError for an unknown one, in Python's wording)."""
+    dim = V.integer("dim", dim, 2, 3, "2 or 3")
+    out: dict[str, Any] = {"dim": dim}
+    for name in params:
+        if name not in LEVEL_PARAMETERS and name != "target":
+            raise TypeError(f"{owner}() got an unexpected keyword argument {name!r}")
+    for name, (default, lo, hi, _) in LEVEL_PARAMETERS.items():
+        value = params.get(name, default[3 - dim] if isinstance(default, tuple) else default)
+        if name in ("grains", "cells"):
+            out[name] = V.integer(name, value, lo, hi)
+        else:
+            out[name] = V.in_range(name, value, lo, hi)
+    out["target"] = V.choice("target", params.get("target", "flat"), TARGETS)
+    return out
+
+
+class SandLevelScene:
+    """B worlds of the sand-shaping task on one batched ``World``.
+
+    Args:
+        n_worlds: number of independent worlds B.
+        dim: 3 (spheres) or 2 (disks in the arena's vertical slice).
+        owner: the caller named in the TypeError for an unknown keyword argument.
+        **params: ``target`` ("flat" or "random") and the keywords of :data:`LEVEL_PARAMETERS`.
+    """
+
+    settle_time: float  # (set by settled_heap: how long the heap settled, s, and its last grain speed, m/s)
+    settle_speed: float
+
+    def __init__(self, n_worlds: int, dim: int = 3, owner: str = "PenaltySandLevelEnv.__init__", **params: Any):
+        self.n_worlds = V.integer("n_worlds", n_worlds, 1)
+        p = _parameters(dim, params, owner)
+        self.params = p
+        self.dim = d = p["dim"]
+        self.n_grains = n = p["grains"]
+        self.cells = p["cells"]
+        self.n_cells = self.cells ** (d - 1)
+        self.target_kind = p["target"]
+        self.blade_speed = p["blade_speed"]
+        self.control_period = p["control_period"]
+        self.success_fraction = p["success_fraction"]
+        self.half_width = HALF_WIDTH
+        self.radii = np.full(n, GRAIN_RADIUS)
+        self.masses = np.full(n, GRAIN_MASS)
+        self.blade_half = np.array(BLADE_HALF[d])
+        # the blade centre's horizontal range: its faces WALL_GAP from the walls
+        self.blade_range = HALF_WIDTH - WALL_GAP - self.blade_half[:-1]
+        cell = 2.0 * HALF_WIDTH / self.cells
+        volume = 4.0 / 3.0 * math.pi * GRAIN_RADIUS**3 if d == 3 else math.pi * GRAIN_RADIUS**2
+        self.depth_unit = volume / (cell ** (d - 1) * PACKING[d])  # one grain's depth over one cell
+        self._check_fits()
+        self._contact_model()
+        self.bed = settled_heap(self)
+        self._make_world()
+        self._spaces()
+        self._buffers()
+
+    # ------------------------------------------------------------------ construction
+    def _check_fits(self) -> None:
+        """The grains' flat level (their volume over the arena at the map's packing) at most
+        ``MAX_LEVEL``: a deeper bed would bury the blade's lowest setting under grains."""
+        most = int(MAX_LEVEL * self.n_cells / self.depth_unit)
+        if self.n_grains > most:
+            raise ValueError(
+                f"grains={self.n_grains} would fill the arena deeper than {MAX_LEVEL} m: at most {most} grains in "
+                f"{self.dim}D"
+            )
+
+    def _contact_model(self) -> None:
+        """ks, kd (pairs and terrain), the substep and kf, by ``physics.configure`` as the
+        PenaltyBalls scene derives them: a grain-grain impact at twice the blade's top speed (a
+        grain thrown by the blade meets a resting one) overlaps at most 10% of a radius, also under
+        the weight of a column of grains as tall as the heap's start (the steady force), and
+        rebounds with restitution 0.3; the substep keeps its worst-case restitution error within
+        30% and the core's stability limit for every contact."""
+        d, T = self.dim, self.control_period
+        column = math.ceil(self.heap_lattice(self.n_grains)[:, -1].max() / (2.0 * GRAIN_RADIUS)) + 1
+        self.config = configure(
+            [GRAIN_MASS, GRAIN_MASS],
+            [GRAIN_RADIUS, GRAIN_RADIUS],
+            max_impact_speed=2.0 * self.blade_speed * math.sqrt(d - 1),
+            penetration=0.1,
+            restitution=0.3,
+            accuracy=0.3,
+            damping="no_tension",
+            terrain=False,
+            integrators=("symplectic_euler",),
+            events=False,
+            max_dt=T,
+            max_force=column * GRAIN_MASS * GRAVITY,
+            energy_budget=None,
+        )
+        self.ks, self.kd = self.config.ks, self.config.kd
+        self.ks_terrain = max(self.ks, GRAIN_MASS * GRAVITY / (0.1 * GRAIN_RADIUS))
+        self.kd_terrain = 2.0 * self.config.zeta * math.sqrt(self.ks_terrain * GRAIN_MASS)
+        self.gravity = GRAVITY
+        self._common: dict[str, Any] = dict(
+            terrain=self._terrain(),
+            gravity=(0.0,) * (d - 1) + (-GRAVITY,),
+            ks=self.ks,
+            kd=self.kd,
+            ks_terrain=self.ks_terrain,
+            kd_terrain=self.kd_terrain,
+            damping="no_tension",
+            integrator="symplectic_euler",
+            broadphase="grid",
+            stepping="scalar",
+            mu=GRAIN_FRICTION,
+            rotation=True,
+            mu_r=GRAIN_ROLLING,
+            tangential="history",  # a tangential spring: static friction, so a heap stands (granular.md)
+            start_check=False,
+        )
+        lattice = self.heap_lattice(self.n_grains)
+        probe = World(lattice, self.radii, self.masses, dt=T, allow_unstable=True, **self._common)
+        dt_max = min(self.config.dt, probe.stability_limit())
+        self.substeps = max(1, math.ceil(T / dt_max))
+        if T / self.substeps > dt_max:  # rounding
+            self.substeps += 1
+        self.dt = T / self.substeps
+
+    def _terrain(self) -> tuple:
+        """The floor, the four (2D: two) walls and the blade (the last shape, kinematic; parked
+        above the arena until a reset places it)."""
+        d, L = self.dim, HALF_WIDTH
+        up = np.eye(d)[-1]
+        walls = [Plane(-s * L * e, s * e) for e in np.eye(d)[:-1] for s in (1.0, -1.0)]
+        park = np.zeros(d)
+        park[-1] = 10.0
+        blade = Box(park, self.blade_half, velocity=(0.0,) * d)
+        self.blade_shape = 1 + len(walls)
+        return (Plane(np.zeros(d), up), *walls, blade)
+
+    def heap_lattice(self, n: int) -> np.ndarray:
+        """The grains' start before settling, (n, d): the n sites of a square lattice of
+        ``HEAP_LATTICE`` radii inside the walls that lie lowest under a cone of slope
+        ``HEAP_SLOPE`` about the vertical through the centre (sorted by distance from the axis plus
+        height / tan(slope)), jittered horizontally by up to 5% of a radius (a fixed generator)."""
+        d, r = self.dim, GRAIN_RADIUS
+        step = HEAP_LATTICE * r
+        k_max = int((HALF_WIDTH - 1.1 * r) / step)
+        axis = np.arange(-k_max, k_max + 1) * step
+        layers = np.arange(max(1, 4 * n // max(1, len(axis) ** (d - 1)) + 4)) * step
+        grids = np.meshgrid(*([axis] * (d - 1)), layers, indexing="ij")
+        pts = np.stack([g.ravel() for g in grids], axis=-1)
+        rho = np.linalg.norm(pts[:, :-1], axis=1)
+        score = rho + pts[:, -1] / math.tan(math.radians(HEAP_SLOPE))
+        order = np.lexsort((pts[:, -1], rho, score))
+        out = pts[order[:n]].copy()
+        out[:, -1] += 1.05 * r
+        rng = np.random.default_rng(0)
+        out[:, :-1] += rng.uniform(-0.05 * r, 0.05 * r, out[:, :-1].shape)
+        return out
+
+    def _make_world(self) -> None:
+        start = np.repeat(self.bed[None], self.n_worlds, axis=0)
+        self.world = World(start, self.radii, self.masses, dt=self.dt, **self._common)
+
+    def _spaces(self) -> None:
+        d, C, L = self.dim, self.n_cells, HALF_WIDTH
+        h = d - 1
+        self.obs_size = 2 * C + 2 * h
+        low = np.concatenate([np.zeros(2 * C), np.full(h, -L), np.full(h, -self.blade_speed)])
+        high = np.concatenate([np.full(2 * C, MAP_TOP), np.full(h, L), np.full(h, self.blade_speed)])
+        self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (h,), dtype=np.float32)
+        self.action_size = h
+        # the cells' centres (C, d - 1), row-major
+        c = (np.arange(self.cells) + 0.5) * (2.0 * L / self.cells) - L
+        self.cell_centres = np.stack(np.meshgrid(*([c] * h), indexing="ij"), axis=-1).reshape(C, h)
+
+    def _buffers(self) -> None:
+        B, d, C = self.n_worlds, self.dim, self.n_cells
+        self.maps = np.zeros((B, C))
+        self.targets = np.zeros((B, C))
+        self.blade = np.zeros((B, d))  # the blade's centre
+        self.blade_velocity = np.zeros((B, d))
+        self.error = np.zeros(B)
+        self.initial_error = np.zeros(B)
+        self.reward = np.zeros(B)
+        self.success = np.zeros(B, dtype=np.bool_)
+        self.grains_lost = np.zeros(B, dtype=np.int64)
+        self.obs = np.zeros((B, self.obs_size), dtype=np.float32)
+        self.actions = np.zeros((B, d - 1))
+        self._all = np.arange(B, dtype=np.int64)
+        # the bed's flat level: the mean of its height map (the level surface of the same volume)
+        self.flat_level = self.n_grains * self.depth_unit / self.n_cells
+
+    # ------------------------------------------------------------------ the height map
+    def height_map(self, grains: np.ndarray) -> np.ndarray:
+        """Height maps of grain sets ``grains`` (k, n, d): (k, cells^(d-1)) (the kernel's)."""
+        g = np.ascontiguousarray(grains, dtype=np.float64)
+        out = np.zeros((len(g), self.n_cells))
+        LK.height_maps(g, np.arange(len(g), dtype=np.int64), HALF_WIDTH, self.cells, self.depth_unit, MAP_TOP, out)
+        return out
+
+    def target_height(self, target: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """The target maps ``target`` (k, C) at horizontal points ``h`` (k, d - 1), interpolated
+        bilinearly between the cells' centres (constant beyond the outer centres)."""
+        n, L = self.cells, HALF_WIDTH
+        f = np.clip((h + L) * (n / (2.0 * L)) - 0.5, 0.0, n - 1.0)
+        i0 = np.minimum(np.floor(f).astype(np.int64), max(n - 2, 0))
+        t = f - i0
+        i1 = np.minimum(i0 + 1, n - 1)
+        k = np.arange(len(h))
+        if self.dim == 2:
+            return target[k, i0[:, 0]] * (1.0 - t[:, 0]) + target[k, i1[:, 0]] * t[:, 0]
+        grid = target.reshape(len(h), n, n)
+        a, b = i0[:, 0], i0[:, 1]
+        c, e = i1[:, 0], i1[:, 1]
+        u, w = t[:, 0], t[:, 1]
+        return (
+            grid[k, a, b] * (1 - u) * (1 - w)
+            + grid[k, c, b] * u * (1 - w)
+            + grid[k, a, e] * (1 - u) * w
+            + grid[k, c, e] * u * w
+        )
+
+    def _bottom(self, target: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """The blade bottom's height over horizontal points ``h``: the target surface there, but
+        never below ``BLADE_FLOOR`` (one grain layer plus 1 cm: lower, it would bulldoze every
+        grain on the floor before it)."""
+        return np.maximum(self.target_height(target, h) + BLADE_LIFT, BLADE_FLOOR)
+
+    # ------------------------------------------------------------------ targets
+    def check_target(self, target: Any) -> np.ndarray:
+        """A user's target height map: ``cells``^(d-1) values (flat, or shaped (cells, cells) in
+        3D), finite, within [0, MAP_TOP]. ValueError naming ``options['target']`` otherwise."""
+        arr = V.real_array("options['target']", target)
+        shapes = [(self.n_cells,)] + ([(self.cells, self.cells)] if self.dim == 3 else [])
+        if arr.shape not in shapes:
+            raise ValueError(f"options['target'] must have shape {' or '.join(map(str, shapes))}, got {arr.shape}")
+        arr = arr.reshape(self.n_cells)
+        if arr.min() < 0.0 or arr.max() > MAP_TOP:
+            raise ValueError(
+                f"options['target'] must lie within [0, {MAP_TOP}] m (the height map's bounds), "
+                f"got values in [{arr.min():.3g}, {arr.max():.3g}]"
+            )
+        return arr
+
+    def random_target(self, rng: np.random.Generator) -> np.ndarray:
+        """A target drawn from ``rng`` (5 uniforms u0..u4): the flat level plus a relief of zero
+        mean over the cells whose largest |value| is a x the level, a = 0.25 + 0.25 u1
+        (``TARGET_AMPLITUDE``). If u0 < 0.5 the relief is a plane sloping along the direction of
+        angle 2 pi u2 (2D: +x if u2 < 0.5, else -x); otherwise a Gaussian of standard deviation
+        0.4 L centred in the inner half of the arena (3D: at radius 0.5 L sqrt(u2), angle 2 pi u3;
+        2D: at (u3 - 0.5) L), a mound, or a pit if u4 < 0.5. The map keeps the flat target's
+        volume (its mean is the level)."""
+        u = rng.random(5)
+        h, L = self.cell_centres, HALF_WIDTH
+        amp = (TARGET_AMPLITUDE[0] + (TARGET_AMPLITUDE[1] - TARGET_AMPLITUDE[0]) * u[1]) * self.flat_level
+        if u[0] < 0.5:  # a slope
+            if self.dim == 3:
+                direction = np.array([math.cos(2.0 * math.pi * u[2]), math.sin(2.0 * math.pi * u[2])])
+            else:
+                direction = np.array([1.0 if u[2] < 0.5 else -1.0])
+            f = h @ direction
+        else:  # a mound or a pit, centred in the inner half
+            if self.dim == 3:
+                phi = 2.0 * math.pi * u[3]
+                centre = 0.5 * L * math.sqrt(u[2]) * np.array([math.cos(phi), math.sin(phi)])
+            else:
+                centre = np.array([(u[3] - 0.5) * L])
+            f = np.exp(-0.5 * np.sum((h - centre) ** 2, axis=1) / (0.4 * L) ** 2)
+            if u[4] < 0.5:
+                f = -f
+        f = f - f.mean()
+        f = f / np.abs(f).max()
+        return self.flat_level + amp * f
+
+    # ------------------------------------------------------------------ resets
+    def reset_worlds(self, worlds: Any, rngs: list, targets: list | None = None) -> None:
+        """New episodes in ``worlds``, each from its generator in ``rngs``: the settled heap turned
+        by a quarter turn (3D) or mirrored (2D), the blade at a wall, the target (``targets``: a
+        checked map per world, or None for the scene's kind)."""
+        idx = np.asarray(worlds, dtype=np.int64)
+        d, k = self.dim, len(idx)
+        u = np.array([rng.random(2) for rng in rngs])
+        grains = self._bed_copies(u[:, 0])
+        for j, b in enumerate(idx):
+            given = None if targets is None else targets[j]
+            if given is not None:
+                self.targets[b] = given
+            elif self.target_kind == "random":
+                self.targets[b] = self.random_target(rngs[j])
+            else:
+                self.targets[b] = self.flat_level
+        # the blade: at the x wall (side by u[1]); in 3D at a uniform y (one more draw)
+        side = np.where(u[:, 1] < 0.5, -1.0, 1.0)
+        blade = np.zeros((k, d))
+        blade[:, 0] = side * self.blade_range[0]
+        if d == 3:
+            y = np.array([rng.random() for rng in rngs])
+            blade[:, 1] = (2.0 * y - 1.0) * self.blade_range[1]
+        bottom = np.maximum(self._bottom(self.targets[idx], blade[:, :-1]), self._clearance(grains, blade))
+        blade[:, -1] = bottom + self.blade_half[-1]
+        self.blade[idx] = blade
+        self.blade_velocity[idx] = 0.0
+        zeros = np.zeros((k, self.n_grains, d))
+        spin = zeros if d == 3 else zeros[..., :1]
+        self.world.set_state(positions=grains, velocities=zeros, angular_velocities=spin, worlds=idx)
+        self.world.set_shape_pose(self.blade_shape, position=blade, velocity=np.zeros((k, d)), worlds=idx)
+        self._observe(idx)
+        self.initial_error[idx] = self.error[idx]
+        self.reward[idx] = 0.0
+        self.success[idx] = False
+
+    def _bed_copies(self, u: np.ndarray) -> np.ndarray:
+        """The settled heap, one copy per uniform draw: turned by a quarter turn floor(4u) (3D; the
+        square arena is symmetric under it) or mirrored if u < 0.5 (2D)."""
+        bed = self.bed
+        out = np.repeat(bed[None], len(u), axis=0)
+        if self.dim == 3:
+            for t, q in enumerate(np.floor(4.0 * u).astype(np.int64) % 4):
+                cq, sq = ((1, 0), (0, 1), (-1, 0), (0, -1))[q]
+                out[t, :, 0] = cq * bed[:, 0] - sq * bed[:, 1]
+                out[t, :, 1] = sq * bed[:, 0] + cq * bed[:, 1]
+        else:
+            out[:, :, 0] = np.where(u[:, None] < 0.5, -bed[:, 0], bed[:, 0])
+        return out
+
+    def _clearance(self, grains: np.ndarray, blade: np.ndarray) -> np.ndarray:
+        """The lowest blade bottom clear of ``grains`` (k, n, d) at horizontal positions ``blade``
+        (k, d): 5 mm above the highest grain top within a radius of the blade's footprint."""
+        h = self.blade_half[:-1] + GRAIN_RADIUS
+        near = np.all(np.abs(grains[:, :, :-1] - blade[:, None, :-1]) < h, axis=-1)
+        tops = np.where(near, grains[:, :, -1] + GRAIN_RADIUS, 0.0)
+        return tops.max(axis=1) + 0.005
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, worlds: np.ndarray | None = None) -> None:
+        """Advance ``worlds`` (default all) by one control period with ``self.actions``: each
+        component clipped to [-1, 1] and scaled by ``blade_speed``, the move cut short at the
+        blade's range; the bottom follows the target surface under the blade (vertical speed at
+        most ``blade_speed``). Then observe and reward."""
+        idx = self._all if worlds is None else np.asarray(worlds, dtype=np.int64)
+        a = self.actions[idx]
+        bad = ~np.all(np.isfinite(a), axis=1)
+        if bad.any():
+            b = int(idx[np.argmax(bad)])
+            where = "" if self.n_worlds == 1 else f" of world {b}"
+            raise ValueError(f"the action{where} contains NaN or inf: {self.actions[b].tolist()}")
+        T, v = self.control_period, self.blade_speed
+        pos = self.blade[idx]
+        new = pos.copy()
+        new[:, :-1] = np.clip(pos[:, :-1] + np.clip(a, -1.0, 1.0) * v * T, -self.blade_range, self.blade_range)
+        goal = self._bottom(self.targets[idx], new[:, :-1]) + self.blade_half[-1]
+        new[:, -1] = pos[:, -1] + np.clip(goal - pos[:, -1], -v * T, v * T)
+        vel = (new - pos) / T
+        self.world.set_shape_pose(self.blade_shape, position=pos, velocity=vel, worlds=idx)
+        try:
+            self.world.step(self.substeps, worlds=idx)
+        except FloatingPointError as exc:
+            raise FloatingPointError(
+                f"the physics produced NaN or inf ({exc}); dt={self.dt:g}, substeps={self.substeps}"
+            ) from None
+        self.blade[idx] = new
+        self.blade_velocity[idx] = vel
+        previous = self.error[idx].copy()
+        self._observe(idx)
+        self.reward[idx] = REWARD_SCALE * (previous - self.error[idx])
+        self.success[idx] = self.error[idx] < self.success_fraction * self.initial_error[idx]
+
+    def _observe(self, idx: np.ndarray) -> None:
+        x = self.world.positions  # (B, n, d): the World is batched
+        LK.height_maps(x, idx, HALF_WIDTH, self.cells, self.depth_unit, MAP_TOP, self.maps)
+        diff = self.maps[idx] - self.targets[idx]
+        self.error[idx] = np.sqrt(np.mean(diff * diff, axis=1))
+        g = x[idx]
+        L = HALF_WIDTH
+        inside = np.all(np.isfinite(g), axis=-1) & np.all(np.abs(g[..., :-1]) <= L, axis=-1) & (g[..., -1] > -L)
+        self.grains_lost[idx] = self.n_grains - inside.sum(axis=1)
+        C, h = self.n_cells, self.dim - 1
+        obs = self.obs
+        obs[idx, :C] = self.maps[idx]
+        obs[idx, C : 2 * C] = self.targets[idx]
+        obs[idx, 2 * C : 2 * C + h] = self.blade[idx, :-1]
+        obs[idx, 2 * C + h :] = np.clip(self.blade_velocity[idx, :-1], -self.blade_speed, self.blade_speed)
+
+    def frame(self, b: int, scale: int = 16) -> np.ndarray:
+        """World b as a uint8 RGB image: the height map (left) and the target (right), each cell a
+        ``scale``-pixel square (2D: a column of bars), grey by height (white at 0.5 m), the blade's
+        cell red on the map."""
+        n = self.cells
+        maps = np.stack([self.maps[b], self.targets[b]])
+        if self.dim == 2:
+            rows = np.arange(n)[::-1, None] * (0.5 / n)  # a bar chart: row k lit below the height
+            img = (maps[:, None, :] > rows[None]).astype(float) * 0.9
+        else:
+            img = np.clip(maps.reshape(2, n, n) / 0.5, 0.0, 1.0)
+        rgb = np.repeat(img[..., None], 3, axis=-1)
+        cell = np.clip(((self.blade[b, :-1] + HALF_WIDTH) * n / (2.0 * HALF_WIDTH)).astype(int), 0, n - 1)
+        if self.dim == 3:
+            rgb[0, cell[0], cell[1]] = (1.0, 0.0, 0.0)
+        else:
+            rgb[0, :, cell[0]] = rgb[0, :, cell[0]] * 0.5 + np.array([0.5, 0.0, 0.0])
+        gap = np.ones((n, 1, 3))
+        out = np.concatenate([rgb[0], gap, rgb[1]], axis=1)
+        return (np.kron(out, np.ones((scale, scale, 1))) * 255).astype(np.uint8)
+
+    def info(self, b: int) -> dict[str, Any]:
+        """World b's info of the last step or reset."""
+        return {
+            "error": float(self.error[b]),
+            "initial_error": float(self.initial_error[b]),
+            "grains_lost": int(self.grains_lost[b]),
+            "is_success": bool(self.success[b]),
+        }
+
+    def describe(self) -> str:
+        """The derived physics, one line."""
+        return (
+            f"{self.n_grains} grains, ks={self.ks:.4g} N/m, kd={self.kd:.4g} N s/m, ks_terrain={self.ks_terrain:.4g} "
+            f"N/m, dt={self.dt:.4g} s x {self.substeps} substeps per {self.control_period:g} s step; flat level "
+            f"{self.flat_level:.3f} m"
+        )
+
+
+# ----------------------------------------------------------------------------------------------
+# The settled heap: made once per configuration (per process, and on disk) and reused by every reset
+# ----------------------------------------------------------------------------------------------
+_HEAPS: dict[tuple, tuple[np.ndarray, float, float]] = {}
+
+
+def settled_heap(scene: SandLevelScene) -> np.ndarray:
+    """The scene's grains settled in the arena, (n, d): dropped from :meth:`SandLevelScene.heap_lattice`
+    and stepped with the scene's own physics (the blade parked above) for at least
+    ``SETTLE_TIME[0]`` and until no grain moves faster than ``SETTLE_SPEED`` (at most
+    ``SETTLE_TIME[1]``; a heap still moving then warns). Deterministic, cached per configuration."""
+    key = (
+        "level",
+        scene.dim,
+        scene.n_grains,
+        HEAP_SLOPE,
+        HEAP_LATTICE,
+        scene.dt,
+        scene.ks,
+        scene.kd,
+        scene.ks_terrain,
+        scene.kd_terrain,
+    )
+    known = remembered_bed(
+        _HEAPS, "sand_level_heap", key, lambda: _settle(scene), f"the heap ({scene.n_grains} grains)", SETTLE_SPEED
+    )
+    bed, scene.settle_time, scene.settle_speed = known
+    bed.flags.writeable = False
+    return bed
+
+
+def _settle(scene: SandLevelScene) -> tuple[np.ndarray, float, float]:
+    lattice = scene.heap_lattice(scene.n_grains)
+    world = World(lattice, scene.radii, scene.masses, dt=scene.dt, **scene._common)
+    return settle(world, scene.dt, SETTLE_TIME, SETTLE_SPEED)
