@@ -30,15 +30,9 @@ from . import kernel as KE
 from .observation import ObservationLayout
 from .params import *  # noqa: F403 - the task's parameters and constants, read here and by users as scene.X
 from .params import (
-    BALL_START_RADIUS,
-    GOAL_DISTANCE,
     HEIGHTMAP_CELL,
     HEIGHTMAP_CELLS,
-    OBSTACLE_GAP,
-    OBSTACLE_REGION,
-    OBSTACLE_TRIES,
     PARAMETERS,
-    PUSHER_GAP,
     SUCCESS_BONUS,
     W_GOAL,
     W_REACH,
@@ -50,12 +44,13 @@ from .params import (
 )
 from .randomize import RandomizedScene
 from .sand import SandScene, settled_bed
+from .start import StartScene
 from .terrain import TerrainScene
 
 __all__ = ["PenaltyBallsScene", "PARAMETERS", "check_parameters", "coerce_action", "render_fps", "settled_bed"]
 
 
-class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene):
+class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene, StartScene):
     """B worlds of the PenaltyBalls task on one batched ``World``.
 
     Args:
@@ -467,65 +462,6 @@ class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene):
         if observe:
             self._run(idx, self._split(idx))
             self.stepping[idx] = True
-
-    def _sample(self, rng: np.random.Generator, b: int | None = None) -> list[float]:
-        """One start's horizontal coordinates, flat: pusher, ball, obstacles, goal. The draws
-        (documented in the env's "Starting State") come in a fixed order. Plain floats: a start is
-        a handful of scalars, and numpy's per-call cost would dominate. ``b``: a randomised scene's
-        world (its drawn radii); None: the fixed radii."""
-        contact = self._contact if b is None else float(self._push_offset[b])
-        g0, g1 = GOAL_DISTANCE
-        ball: tuple[float, ...]
-        target: tuple[float, ...]
-        pusher: tuple[float, ...]
-        p0, p1 = PUSHER_GAP
-        if self.dim == 3:
-            u = rng.random(6).tolist()
-            rho, phi = BALL_START_RADIUS * math.sqrt(u[0]), 2.0 * math.pi * u[1]
-            ball = (rho * math.cos(phi), rho * math.sin(phi))
-            dist, phi = g0 + (g1 - g0) * u[2], 2.0 * math.pi * u[3]
-            target = (ball[0] + dist * math.cos(phi), ball[1] + dist * math.sin(phi))
-            gap, phi = p0 + (p1 - p0) * u[4], 2.0 * math.pi * u[5]
-            pusher = (ball[0] + (contact + gap) * math.cos(phi), ball[1] + (contact + gap) * math.sin(phi))
-        else:
-            u = rng.random(4).tolist()
-            ball = (BALL_START_RADIUS * (2.0 * u[0] - 1.0),)
-            side = 1.0 if u[1] < 0.5 else -1.0
-            # on a line the pusher cannot pass the ball: it starts on the far side from the goal
-            target = (ball[0] + side * (g0 + (g1 - g0) * u[2]),)
-            pusher = (ball[0] - side * (contact + p0 + (p1 - p0) * u[3]),)
-        placed = [pusher, ball]
-        if self.n_obstacles:
-            self._place_obstacles(rng, placed, target, None if b is None else self._radii_rows[b].tolist())
-        placed.append(target)
-        return [c for h in placed for c in h]
-
-    def _place_obstacles(
-        self, rng: np.random.Generator, placed: list, target: tuple, radii: list[float] | None = None
-    ) -> None:
-        """Rejection sampling: uniform in the obstacle region, clear of every ball and the goal
-        (``radii``: the world's; None: the fixed scene's)."""
-        d = self.dim
-        region = OBSTACLE_REGION[d]
-        radii = self._radii_list if radii is None else radii
-        r_o = radii[2]
-        goal_clear = r_o + self.goal_tolerance
-        for _ in range(self.n_obstacles):
-            for _ in range(OBSTACLE_TRIES):
-                if d == 3:
-                    u = rng.random(2).tolist()
-                    rho, phi = region * math.sqrt(u[0]), 2.0 * math.pi * u[1]
-                    h: tuple[float, ...] = (rho * math.cos(phi), rho * math.sin(phi))
-                else:
-                    h = (region * (2.0 * rng.random() - 1.0),)
-                clear = math.dist(h, target) >= goal_clear and all(
-                    math.dist(h, q) >= r_o + radii[i] + OBSTACLE_GAP for i, q in enumerate(placed)
-                )
-                if clear:
-                    break
-            else:  # pragma: no cover - the density check in check_parameters makes this unreachable
-                raise RuntimeError("could not place the obstacles without overlap; use fewer or smaller ones")
-            placed.append(h)
 
     # ------------------------------------------------------------------ read-out
     INFO_KEYS = KE.INFO_KEYS
