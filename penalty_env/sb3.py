@@ -13,44 +13,36 @@ Importing this module imports stable-baselines3 (and torch); ``import penalty_en
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Iterable, Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.utils import seeding
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
 from . import _validate as V
-from .envs import kernel as KE
-from .envs.penalty_balls import MAX_EPISODE_STEPS
-from .envs.render import Renderer
-from .envs.scene import PenaltyBallsScene, coerce_action, render_fps
-from .envs.views import Views, pop_view_kwargs
+from .envs.checks import check_options, check_seed, render_fps
+from .envs.engine import Batch
+from .envs.faces import check_episode_steps
+from .envs.params import MAX_EPISODE_STEPS
+from .envs.penalty_balls import PenaltyBallsVectorEnv
 
 __all__ = ["PenaltyBallsVecEnv", "make_vec_env"]
 
-_ENV_IDS = (
-    "PenaltyBalls-v0",
-    "PenaltyBalls2D-v0",
-    "PenaltyBalls-v1",
-    "PenaltyBalls2D-v1",
-    "PenaltyBallsSand-v0",
-    "PenaltyBallsSand2D-v0",
-    "PenaltyBallsSand-v1",
-    "PenaltyBallsSand2D-v1",
-)
-
 
 class PenaltyBallsVecEnv(VecEnv):
-    """``n_envs`` PenaltyBalls worlds as an SB3 ``VecEnv`` (see the module docstring).
+    """``n_envs`` worlds of a task as an SB3 ``VecEnv`` (see the module docstring): the engine
+    (:class:`~penalty_env.envs.engine.Batch`) with SB3's same-step resets.
 
     Args:
         n_envs: number of worlds.
         dim: 3 or 2.
         max_episode_steps: episode length (truncation).
         render_mode: None or "rgb_array" (``get_images`` returns one frame per world).
+        vector_class: the registered vector env whose worlds these are (its ``parts``): the
+            PenaltyBalls ids' (default) or the level task's.
         **kwargs: the scene's keyword arguments (``PenaltyBallsEnv``'s docstring lists them),
             and the observation mode: ``obs_mode`` (``"state"``, ``"heightmap"``, ``"rgb"`` or a
             tuple of them), ``heightmap_cells``, ``heightmap_cell``, ``rgb_size``. An ``"rgb"``
@@ -58,8 +50,10 @@ class PenaltyBallsVecEnv(VecEnv):
             a tuple gives a ``Dict`` observation (``MultiInputPolicy``), whose
             ``terminal_observation`` is a dict too.
 
-    ``get_attr``, ``set_attr`` and ``env_method`` act on this one object, which all worlds share
-    (there are no per-world env objects); they return one result per requested index.
+    ``set_options`` takes the task's reset options (``randomize``; the level task's ``target``),
+    one dict per world, used at the next ``reset()``. ``get_attr``, ``set_attr`` and
+    ``env_method`` act on this one object, which all worlds share (there are no per-world env
+    objects); they return one result per requested index.
     """
 
     def __init__(
@@ -68,52 +62,41 @@ class PenaltyBallsVecEnv(VecEnv):
         dim: int = 3,
         max_episode_steps: int = MAX_EPISODE_STEPS,
         render_mode: str | None = None,
+        vector_class: Any = PenaltyBallsVectorEnv,
         **kwargs: Any,
     ) -> None:
-        if (
-            isinstance(max_episode_steps, bool)
-            or not isinstance(max_episode_steps, (int, np.integer))
-            or max_episode_steps < 1
-        ):
-            raise ValueError(f"max_episode_steps must be an int >= 1, got {max_episode_steps!r}")
+        max_episode_steps = check_episode_steps(max_episode_steps)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        view_kwargs = pop_view_kwargs(kwargs)
-        self.scene = PenaltyBallsScene(
-            V.integer("n_envs", n_envs, 1), dim=dim, owner="PenaltyBallsVecEnv.__init__", **kwargs
-        )
-        self.views = Views(self.scene, **view_kwargs)
-        self._view = None if self.views.is_state else self.views  # None: the state vector, as it is
-        self._never = np.zeros(n_envs, dtype=np.bool_)
+        self.scene, self.views = vector_class.parts(n_envs, dim, "PenaltyBallsVecEnv.__init__", **kwargs)
+        self.batch = Batch(self.scene, self.views, max_episode_steps)
         self.render_mode = render_mode
         self.max_episode_steps = int(max_episode_steps)
         super().__init__(self.scene.n_worlds, self.views.space, self.scene.action_space)
         # SB3's VecVideoRecorder records at metadata["render_fps"] (30 when it is missing)
         self.metadata: dict[str, Any] = {**self.metadata, "render_fps": render_fps(self.scene.control_period)}
-        self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
-        self._steps = np.zeros(self.num_envs, dtype=np.int64)
         self._first_steps = np.zeros(self.num_envs, dtype=np.int64)  # stagger(): step counts after the next reset
         self._actions: np.ndarray | None = None
-        self._renderer: Renderer | None = None
+        self._renderer: Any = None
 
     # ------------------------------------------------------------------ VecEnv API
     def reset(self) -> VecEnvObs:
-        for i, options in enumerate(self._options):
-            if options:
-                raise ValueError(
-                    f"PenaltyBallsVecEnv takes no reset options (the Gymnasium envs take options['randomize']), "
-                    f"got {options!r} for env {i}"
-                )
-        for i, seed in enumerate(self._seeds):
-            if seed is not None or self._rngs[i] is None:
-                self._rngs[i] = seeding.np_random(seed)[0]
-        self.scene.reset_worlds(range(self.num_envs), self._rngs)
-        self._steps[:] = self._first_steps
+        task, batch = self.scene, self.batch
+        options = [check_options(o, task.reset_options, task.owner) for o in self._options]
+        batch.seed(self._seeds, batch.all)
+        # worlds with the same options reset together (each draws from its own generator: the
+        # grouping changes nothing of what a world draws)
+        groups: dict[str, list[int]] = {}
+        for i, o in enumerate(options):
+            groups.setdefault(repr(sorted(o.items(), key=lambda kv: kv[0])), []).append(i)
+        for members in groups.values():
+            idx = np.array(members, dtype=np.int64)
+            batch.reset(idx, options[members[0]] or None, self._first_steps)
         self._first_steps[:] = 0
-        self.reset_infos = [self.scene.info(i) for i in range(self.num_envs)]
+        self.reset_infos = [batch.info(i) for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
-        return self.scene.obs.copy() if self._view is None else self._view.observe()
+        return batch.observe()
 
     def stagger(self, seed: int | None = None) -> None:
         """Put the worlds' episodes out of phase: after the next ``reset()`` only, world i's first
@@ -126,42 +109,29 @@ class PenaltyBallsVecEnv(VecEnv):
         self._first_steps[:] = self.max_episode_steps - n
 
     def step_async(self, actions: np.ndarray) -> None:
-        shape = (self.num_envs, self.scene.action_size)
-        if type(actions) is not np.ndarray or actions.shape != shape or actions.dtype.kind != "f":
-            actions = coerce_action(actions, shape)
         self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:
         if self._actions is None:
             raise RuntimeError("call step_async(actions) (or step) before step_wait()")
-        scene = self.scene
-        scene.actions[:] = self._actions
-        self._actions = None
-        b = KE.first_bad_action(scene.actions, self._never)
-        if b >= 0:  # refuse before any world moves (the batch may be split over threads)
-            raise ValueError(f"the action of world {b} contains NaN or inf: {scene.actions[b].tolist()}")
-        scene.step()
-        self._steps += 1
-        terminated = scene.buffers.success.copy()
-        truncated = self._steps >= self.max_episode_steps
+        batch = self.batch
+        actions, self._actions = self._actions, None
+        batch.act(actions, batch.never)  # refused before any world moves (the batch may be split over threads)
+        batch.advance()
+        rewards, terminated = batch.outcome(None)
+        truncated = batch.truncated()
         dones = terminated | truncated
-        rewards = scene.buffers.reward.astype(np.float32)
-        infos = self._step_infos(truncated & ~terminated)
+        infos = batch.info_list()
+        for info, flag in zip(infos, (truncated & ~terminated).tolist()):
+            info["TimeLimit.truncated"] = flag
         if dones.any():
             idx = np.flatnonzero(dones)
-            if self._view is None:
-                for i in idx:
-                    infos[i]["terminal_observation"] = scene.obs[i].copy()
-            else:
-                last = self._view.observe(idx)
-                for t, i in enumerate(idx):
-                    infos[i]["terminal_observation"] = self._view.item(last, t)
-            scene.reset_worlds(idx, [self._rngs[i] for i in idx])
-            self._steps[idx] = 0
+            for i, last in zip(idx, batch.final_observations(idx)):
+                infos[i]["terminal_observation"] = last
+            batch.reset(idx)
             for i in idx:
-                self.reset_infos[i] = scene.info(int(i))
-        obs = scene.obs.copy() if self._view is None else self._view.observe()
-        return obs, rewards, dones, infos
+                self.reset_infos[i] = batch.info(int(i))
+        return batch.observe(), rewards.astype(np.float32), dones, infos
 
     def close(self) -> None:
         self._renderer = None
@@ -170,8 +140,7 @@ class PenaltyBallsVecEnv(VecEnv):
         if self.render_mode != "rgb_array":
             return [None] * self.num_envs
         if self._renderer is None:
-            p = self.scene.params
-            self._renderer = Renderer(self.scene, p["render_width"], p["render_height"])
+            self._renderer = self.scene.renderer()
         return [self._renderer.frame(b) for b in range(self.num_envs)]
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
@@ -190,20 +159,6 @@ class PenaltyBallsVecEnv(VecEnv):
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
         return [False for _ in self._get_indices(indices)]
 
-    # ------------------------------------------------------------------ helpers
-    def _step_infos(self, time_limit: np.ndarray) -> list[dict[str, Any]]:
-        """One info dict per world, as a ``gymnasium.make`` env's step returns it, plus SB3's
-        ``TimeLimit.truncated``."""
-        buf = self.scene.buffers
-        keys = KE.INFO_KEYS
-        infos = [dict(zip(keys, row)) for row in zip(*buf.info, buf.success.tolist())]
-        for info, flag in zip(infos, time_limit.tolist()):
-            info["TimeLimit.truncated"] = flag
-        if self.scene.randomize:  # each world's draws at its last reset
-            for i, info in enumerate(infos):
-                info["randomization"] = self.scene.randomization(i)
-        return infos
-
     def _get_indices(self, indices: VecEnvIndices) -> Iterable[int]:
         if indices is None:
             return range(self.num_envs)
@@ -220,13 +175,15 @@ def make_vec_env(
     monitor_kwargs: dict[str, Any] | None = None,
     **env_kwargs: Any,
 ) -> VecEnv:
-    """An SB3 ``VecEnv`` of ``n_envs`` PenaltyBalls worlds, like SB3's ``make_vec_env(env_id)``.
+    """An SB3 ``VecEnv`` of ``n_envs`` worlds of a registered id, like SB3's ``make_vec_env(env_id)``.
 
     Args:
-        env_id: "PenaltyBalls-v0" or "PenaltyBalls2D-v0" (its registered ``dim`` and
-            ``max_episode_steps`` are used unless ``env_kwargs`` override them).
+        env_id: a PenaltyBalls id (the goal-conditioned ids aside: their ``Dict`` observations are
+            for SB3's ``HerReplayBuffer`` over ``DummyVecEnv``) or a PenaltySandLevel id (its
+            registered ``dim`` and ``max_episode_steps`` are used unless ``env_kwargs`` override
+            them).
         n_envs: number of worlds.
-        seed: world i's first episode is seeded ``seed + i`` (None: fresh entropy).
+        seed: world i's first episode is seeded ``seed + i`` (None: fresh entropy); an int >= 0.
         monitor: wrap in SB3's ``VecMonitor`` (episode return, length and time in
             ``info["episode"]``, plus ``is_success``), as SB3's ``make_vec_env`` wraps each env in
             a ``Monitor``.
@@ -235,15 +192,16 @@ def make_vec_env(
     """
     import penalty_env  # noqa: F401  (registers the ids)
 
-    if env_id not in _ENV_IDS:
-        raise ValueError(f"env_id must be one of {_ENV_IDS}, got {env_id!r}")
+    seed = check_seed(seed)
+    n_envs = V.integer("n_envs", n_envs, 1)
+    vector_class = _vector_class(env_id)
     spec = gym.spec(env_id)
     kwargs = dict(spec.kwargs)
     kwargs["max_episode_steps"] = spec.max_episode_steps
     kwargs.update(env_kwargs)
-    venv: VecEnv = PenaltyBallsVecEnv(n_envs, **kwargs)
+    venv: VecEnv = PenaltyBallsVecEnv(n_envs, vector_class=vector_class, **kwargs)
     if seed is not None:
-        venv.seed(seed)
+        venv.seed(int(seed))
     if monitor:
         mk: dict[str, Any] = {"info_keywords": ("is_success",)}
         mk.update(monitor_kwargs or {})
@@ -251,3 +209,24 @@ def make_vec_env(
         venv = VecMonitor(venv, **mk)
         venv.metadata = metadata  # the wrapper's own would drop render_fps
     return venv
+
+
+def _vector_class(env_id: Any) -> Any:
+    """The registered vector class of ``env_id`` when it has ``parts`` (the ids this adapter
+    steps), else a ValueError naming the ids it takes."""
+    ids = sorted(k for k, s in gym.registry.items() if _has_parts(s.vector_entry_point))
+    spec = gym.registry.get(env_id) if isinstance(env_id, str) else None
+    if spec is None or not _has_parts(spec.vector_entry_point):
+        raise ValueError(f"env_id must be one of {ids}, got {env_id!r}")
+    return _load(spec.vector_entry_point)
+
+
+def _load(entry: Any) -> Any:
+    if not isinstance(entry, str):
+        return entry
+    module, name = entry.split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def _has_parts(entry: Any) -> bool:
+    return isinstance(entry, str) and entry.startswith("penalty_env.") and hasattr(_load(entry), "parts")

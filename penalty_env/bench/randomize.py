@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from penalty_env.envs.vector import PenaltyBallsVectorEnv
+from penalty_env.envs.penalty_balls import PenaltyBallsVectorEnv
 
 # the example ranges (its restitution floor raised into the allowed range)
 # plus the motor and the radii: ranges whose corners the fixed scene's substep already covers
@@ -62,7 +62,7 @@ def _compile_seconds(physics: str, randomize: bool) -> float:
         "from penalty_env._jit import _CompileWatch\n"
         "from numba.core import event\n"
         "w = _CompileWatch(); event.register('numba:compile', w)\n"
-        "from penalty_env.envs.vector import PenaltyBallsVectorEnv\n"
+        "from penalty_env.envs.penalty_balls import PenaltyBallsVectorEnv\n"
         "import numpy as np\n"
         f"env = PenaltyBallsVectorEnv(1024, physics={physics!r}, randomize={RANGES if randomize else None!r})\n"
         "env.reset(seed=0); env.step(np.zeros((1024,) + env.single_action_space.shape))\n"

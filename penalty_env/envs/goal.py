@@ -3,10 +3,11 @@ goal-conditioned tasks (a ``Dict`` observation with ``observation``, ``achieved_
 ``desired_goal``; a sparse reward; ``compute_reward`` for hindsight relabelling).
 
 :class:`PenaltyBallsGoalEnv` is the single env (``PenaltyBallsGoal-v0`` and its siblings) and
-:class:`PenaltyBallsGoalVectorEnv` its native vector twin (all worlds in one Numba call). Both
-drive the base task's :class:`~penalty_env.envs.scene.PenaltyBallsScene` unchanged: only the
-observation is regrouped and the reward, success and termination are recomputed from it, so
-the physics, the starts and the random draws are the base ids' own.
+:class:`PenaltyBallsGoalVectorEnv` its native vector twin (all worlds in one Numba call). Both are
+the engine (:class:`.engine.Batch`) over the base task's scene, unchanged, with two parts of its
+own: :class:`GoalView` regroups the state vector into the ``Dict``, and :class:`GoalReward`
+recomputes the reward, success and termination from it. So the physics, the starts and the random
+draws are the base ids' own.
 """
 
 from __future__ import annotations
@@ -14,16 +15,17 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from gymnasium import error, spaces
+from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
-from gymnasium.vector.utils import batch_space
 
 from .. import _validate as V
-from .penalty_balls import PenaltyBallsEnv
+from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
+from .params import MAX_EPISODE_STEPS
+from .penalty_balls import PenaltyBallsEnv, PenaltyBallsVectorEnv
 from .scene import PenaltyBallsScene
-from .vector import MAX_EPISODE_STEPS, PenaltyBallsVectorEnv
+from .views import pop_view_kwargs
 
-__all__ = ["PenaltyBallsGoalEnv", "PenaltyBallsGoalVectorEnv", "REWARD_TYPES", "goal_distance"]
+__all__ = ["PenaltyBallsGoalEnv", "PenaltyBallsGoalVectorEnv", "GoalView", "GoalReward", "REWARD_TYPES", "goal_distance"]
 
 REWARD_TYPES = ("sparse", "dense")
 
@@ -69,25 +71,46 @@ def _refuse_sand(kwargs: dict[str, Any]) -> None:
         )
 
 
-def _goal_spaces(scene: PenaltyBallsScene, observe_goal: bool) -> tuple[spaces.Dict, np.ndarray, slice, slice]:
-    """The Dict observation space of one world, the base observation's entries that ``observation``
-    keeps (all of them with ``observe_goal``; else all but the goal's fields, "goal position" and
-    "goal - ball"), and its ball and goal slices."""
-    layout = scene.layout
-    ball, goal = layout.slice("ball position"), layout.slice("goal position")
-    entries = np.arange(layout.size)
-    if not observe_goal:
-        drop = np.concatenate([entries[layout.slice(name)] for name in GOAL_FIELDS])
-        entries = np.setdiff1d(entries, drop)
-    low, high = layout.low.astype(np.float32), layout.high.astype(np.float32)
-    space = spaces.Dict(
-        {
-            "observation": spaces.Box(low[entries], high[entries], dtype=np.float32),
-            "achieved_goal": spaces.Box(low[ball], high[ball], dtype=np.float32),
-            "desired_goal": spaces.Box(low[goal], high[goal], dtype=np.float32),
+class GoalView:
+    """The engine's view of a goal-conditioned env (:class:`.engine.View`): each world's state
+    vector as the ``Dict`` of ``observation`` (the base observation's entries, all but the goal's
+    fields "goal position" and "goal - ball" unless ``observe_goal``), ``achieved_goal`` (the
+    ball's position) and ``desired_goal`` (the goal's), fresh arrays at every call."""
+
+    is_state = False
+
+    def __init__(self, scene: PenaltyBallsScene, observe_goal: bool) -> None:
+        layout = scene.layout
+        self.scene = scene
+        self.ball, self.goal = layout.slice("ball position"), layout.slice("goal position")
+        entries = np.arange(layout.size)
+        if not observe_goal:
+            drop = np.concatenate([entries[layout.slice(name)] for name in GOAL_FIELDS])
+            entries = np.setdiff1d(entries, drop)
+        self.entries = entries
+        low, high = layout.low.astype(np.float32), layout.high.astype(np.float32)
+        self.space = spaces.Dict(
+            {
+                "observation": spaces.Box(low[entries], high[entries], dtype=np.float32),
+                "achieved_goal": spaces.Box(low[self.ball], high[self.ball], dtype=np.float32),
+                "desired_goal": spaces.Box(low[self.goal], high[self.goal], dtype=np.float32),
+            }
+        )
+
+    def of(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        """The Dict of state vectors ``rows`` ((k, size) or (size,)), fresh arrays."""
+        return {
+            "observation": rows[..., self.entries],
+            "achieved_goal": rows[..., self.ball].copy(),
+            "desired_goal": rows[..., self.goal].copy(),
         }
-    )
-    return space, entries, ball, goal
+
+    def observe(self, worlds: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        obs = self.scene.obs
+        return self.of(obs if worlds is None else obs[worlds])
+
+    def item(self, batch: dict[str, np.ndarray], t: int) -> dict[str, np.ndarray]:
+        return {key: value[t].copy() for key, value in batch.items()}
 
 
 def _check_obs_mode(kwargs: dict[str, Any]) -> None:
@@ -100,13 +123,15 @@ def _check_obs_mode(kwargs: dict[str, Any]) -> None:
         )
 
 
-class _GoalReward:
-    """The reward and success shared by the single and the vector env (set by their ``__init__``:
-    ``dim``, ``goal_tolerance``, ``reward_type``)."""
+class GoalReward:
+    """The reward and success of a goal-conditioned env, from the goals alone (``dim`` coordinates
+    each; success within ``goal_tolerance``; ``reward_type`` "sparse" or "dense")."""
 
-    dim: int
-    goal_tolerance: float
-    reward_type: str
+    def __init__(self, dim: int, goal_tolerance: float, reward_type: str, view: GoalView) -> None:
+        self.dim = dim
+        self.goal_tolerance = goal_tolerance
+        self.reward_type = reward_type
+        self.view = view
 
     def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any = None) -> np.ndarray:
         """The reward of reaching ``achieved_goal`` when ``desired_goal`` was asked, for any batch
@@ -125,8 +150,18 @@ class _GoalReward:
         """``distance < goal_tolerance``, by ``compute_reward``'s arithmetic (bool, shape ``(...)``)."""
         return goal_distance(achieved_goal, desired_goal, self.dim) < self.goal_tolerance
 
+    def __call__(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(rewards, success) of the state vectors ``rows`` (the engine's outcome)."""
+        achieved, desired = rows[..., self.view.ball], rows[..., self.view.goal]
+        return self.compute_reward(achieved, desired, None), self.is_success(achieved, desired)
 
-class PenaltyBallsGoalEnv(_GoalReward, PenaltyBallsEnv):
+
+def _goal_parts(scene: PenaltyBallsScene, reward: str, observe_goal: bool) -> tuple[GoalView, GoalReward]:
+    view = GoalView(scene, observe_goal)
+    return view, GoalReward(scene.dim, float(scene.goal_tolerance), reward, view)
+
+
+class PenaltyBallsGoalEnv(TaskEnv):
     """
     ## Description
 
@@ -212,6 +247,7 @@ class PenaltyBallsGoalEnv(_GoalReward, PenaltyBallsEnv):
     """
 
     OBS_MODES = ("state",)
+    metadata = PenaltyBallsEnv.metadata
 
     def __init__(
         self,
@@ -225,39 +261,23 @@ class PenaltyBallsGoalEnv(_GoalReward, PenaltyBallsEnv):
         self.observe_goal = V.flag("observe_goal", observe_goal)
         _refuse_sand(kwargs)
         _check_obs_mode(kwargs)
-        super().__init__(dim=dim, render_mode=render_mode, **kwargs)
-        # a Dict where the base env has a Box
-        self.observation_space, self._entries, self._ball, self._goal = _goal_spaces(self.scene, self.observe_goal)
-        self.goal_tolerance = float(self.scene.goal_tolerance)
+        pop_view_kwargs(kwargs)  # (checked; the goal envs observe the state vector)
+        check_render_mode(render_mode, self.metadata["render_modes"])
+        scene = PenaltyBallsScene(1, dim=dim, **kwargs)
+        self.view, self.goal_reward = _goal_parts(scene, self.reward_type, self.observe_goal)
+        self._attach(scene, self.view, render_mode, outcome=self.goal_reward)
+        self.goal_tolerance = self.goal_reward.goal_tolerance
 
-    def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
-        return {
-            "observation": obs[self._entries],
-            "achieved_goal": obs[self._ball].copy(),
-            "desired_goal": obs[self._goal].copy(),
-        }
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any = None) -> np.ndarray:
+        """:meth:`GoalReward.compute_reward`: HER's relabelling calls it on batches of goals."""
+        return self.goal_reward.compute_reward(achieved_goal, desired_goal, info)
 
-    def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
-        if self._needs_reset:
-            raise error.ResetNeeded("Cannot call PenaltyBallsGoalEnv.step() before reset()")
-        obs, _, _, truncated, info = super().step(action)
-        goal_obs = self._goal_obs(obs)
-        achieved, desired = goal_obs["achieved_goal"], goal_obs["desired_goal"]
-        reward = float(self.compute_reward(achieved, desired, info))
-        success = bool(self.is_success(achieved, desired))
-        info["is_success"] = success
-        return goal_obs, reward, success, truncated, info
-
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        obs, info = super().reset(seed=seed, options=options)
-        goal_obs = self._goal_obs(obs)
-        info["is_success"] = bool(self.is_success(goal_obs["achieved_goal"], goal_obs["desired_goal"]))
-        return goal_obs, info
+    def is_success(self, achieved_goal: Any, desired_goal: Any) -> np.ndarray:
+        """:meth:`GoalReward.is_success`."""
+        return self.goal_reward.is_success(achieved_goal, desired_goal)
 
 
-class PenaltyBallsGoalVectorEnv(_GoalReward, PenaltyBallsVectorEnv):
+class PenaltyBallsGoalVectorEnv(TaskVectorEnv):
     """N goal-conditioned PenaltyBalls worlds stepped together (one Numba call per step): the
     native vector twin of :class:`PenaltyBallsGoalEnv`, as :class:`PenaltyBallsVectorEnv` is the
     base env's.
@@ -271,6 +291,7 @@ class PenaltyBallsGoalVectorEnv(_GoalReward, PenaltyBallsVectorEnv):
     """
 
     OBS_MODES = ("state",)
+    metadata = PenaltyBallsVectorEnv.metadata
 
     def __init__(
         self,
@@ -287,55 +308,20 @@ class PenaltyBallsGoalVectorEnv(_GoalReward, PenaltyBallsVectorEnv):
         self.observe_goal = V.flag("observe_goal", observe_goal)
         _refuse_sand(kwargs)
         _check_obs_mode(kwargs)
-        super().__init__(
-            num_envs=num_envs,
-            dim=dim,
-            max_episode_steps=max_episode_steps,
-            render_mode=render_mode,
-            autoreset_mode=autoreset_mode,
-            **kwargs,
-        )
-        self.single_observation_space, self._entries, self._ball, self._goal = _goal_spaces(
-            self.scene, self.observe_goal
-        )
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self.goal_tolerance = float(self.scene.goal_tolerance)
+        pop_view_kwargs(kwargs)  # (checked; the goal envs observe the state vector)
+        max_episode_steps = check_episode_steps(max_episode_steps)
+        check_render_mode(render_mode, self.metadata["render_modes"])
+        mode = check_autoreset_mode(autoreset_mode)
+        num_envs = V.integer("num_envs", num_envs, 1)
+        scene = PenaltyBallsScene(num_envs, dim=dim, owner="PenaltyBallsGoalVectorEnv.__init__", **kwargs)
+        self.view, self.goal_reward = _goal_parts(scene, self.reward_type, self.observe_goal)
+        self._attach(scene, self.view, max_episode_steps, render_mode, mode, outcome=self.goal_reward)
+        self.goal_tolerance = self.goal_reward.goal_tolerance
 
-    def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
-        """The Dict observation of the worlds' rows ``obs`` (N, size), as fresh arrays."""
-        return {
-            "observation": obs[:, self._entries],
-            "achieved_goal": obs[:, self._ball],
-            "desired_goal": obs[:, self._goal],
-        }
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any = None) -> np.ndarray:
+        """:meth:`GoalReward.compute_reward`."""
+        return self.goal_reward.compute_reward(achieved_goal, desired_goal, info)
 
-    # the base step's parts that differ (the stepping and the autoresets are the base env's)
-    def _outcome(self, reset: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """The goal env's reward and termination, for all worlds at once (a world just ``reset``:
-        0 and False, as ``SyncVectorEnv`` reports a reset step)."""
-        goal_obs = self._goal_obs(self.scene.obs)
-        achieved, desired = goal_obs["achieved_goal"], goal_obs["desired_goal"]
-        rewards = self.compute_reward(achieved, desired, None)
-        terminated = self.is_success(achieved, desired)
-        if reset is not None:
-            rewards[reset] = 0.0
-            terminated[reset] = False
-        return rewards, terminated
-
-    def _observe(self) -> dict[str, np.ndarray]:
-        return self._goal_obs(self.scene.obs)
-
-    def _final_obs(self, idx: np.ndarray) -> list[Any]:
-        goal_obs = self._goal_obs(self.scene.obs[idx])
-        return [{key: value[t] for key, value in goal_obs.items()} for t in range(idx.size)]
-
-    def _infos(self, mask: np.ndarray) -> dict[str, Any]:
-        """The base env's infos with this env's success (of the worlds' current observations;
-        a world just reset: its start's)."""
-        infos = super()._infos(mask)
-        goal_obs = self._goal_obs(self.scene.obs)
-        infos["is_success"] = self.is_success(goal_obs["achieved_goal"], goal_obs["desired_goal"]) & mask
-        return infos
-
-    def __repr__(self) -> str:
-        return f"PenaltyBallsGoalVectorEnv({self.spec.id if self.spec else f'{self.dim}D'}, num_envs={self.num_envs})"
+    def is_success(self, achieved_goal: Any, desired_goal: Any) -> np.ndarray:
+        """:meth:`GoalReward.is_success`."""
+        return self.goal_reward.is_success(achieved_goal, desired_goal)

@@ -240,11 +240,13 @@ class SandLevelScene:
         self.targets = np.zeros((B, C))
         self.blade = np.zeros((B, d))  # the blade's centre
         self.blade_velocity = np.zeros((B, d))
-        self.error = np.zeros(B)
-        self.initial_error = np.zeros(B)
+        # the info values, rows of one block (the engine's info_values): the error, the episode's
+        # initial error, the grains lost (a count)
+        self.info_values = np.zeros((len(self.info_keys), B))
+        self.error, self.initial_error, self.grains_lost = self.info_values
         self.reward = np.zeros(B)
         self.success = np.zeros(B, dtype=np.bool_)
-        self.grains_lost = np.zeros(B, dtype=np.int64)
+        self.stepping = np.ones(B, dtype=np.bool_)  # off for a world just reset: observed, not stepped
         self.obs = np.zeros((B, self.obs_size), dtype=np.float32)
         self.actions = np.zeros((B, d - 1))
         self._all = np.arange(B, dtype=np.int64)
@@ -334,12 +336,16 @@ class SandLevelScene:
         return self.flat_level + amp * f
 
     # ------------------------------------------------------------------ resets
-    def reset_worlds(self, worlds: Any, rngs: list, targets: list | None = None) -> None:
+    def reset_worlds(self, worlds: Any, rngs: Any, observe: bool = True, options: Any = None) -> None:
         """New episodes in ``worlds``, each from its generator in ``rngs``: the settled heap turned
-        by a quarter turn (3D) or mirrored (2D), the blade at a wall, the target (``targets``: a
-        checked map per world, or None for the scene's kind)."""
+        by a quarter turn (3D) or mirrored (2D), the blade at a wall, the target (``options``:
+        ``{"target": map}`` gives every world reset here that map; else the scene's kind). The
+        worlds are observed here; ``observe=False`` leaves their ``stepping`` flag off, so the next
+        step leaves them as they are (reward 0)."""
         idx = np.asarray(worlds, dtype=np.int64)
         d, k = self.dim, len(idx)
+        target = None if options is None else options.get("target")
+        targets = None if target is None else [self.check_target(target)] * k
         u = np.array([rng.random(2) for rng in rngs])
         grains = self._bed_copies(u[:, 0])
         for j, b in enumerate(idx):
@@ -369,6 +375,7 @@ class SandLevelScene:
         self.initial_error[idx] = self.error[idx]
         self.reward[idx] = 0.0
         self.success[idx] = False
+        self.stepping[idx] = observe
 
     def _bed_copies(self, u: np.ndarray) -> np.ndarray:
         """The settled heap, one copy per uniform draw: turned by a quarter turn floor(4u) (3D; the
@@ -393,12 +400,14 @@ class SandLevelScene:
         return tops.max(axis=1) + 0.005
 
     # ------------------------------------------------------------------ stepping
-    def step(self, worlds: np.ndarray | None = None) -> None:
-        """Advance ``worlds`` (default all) by one control period with ``self.actions``: each
-        component clipped to [-1, 1] and scaled by ``blade_speed``, the move cut short at the
-        blade's range; the bottom follows the target surface under the blade (vertical speed at
-        most ``blade_speed``). Then observe and reward."""
-        idx = self._all if worlds is None else np.asarray(worlds, dtype=np.int64)
+    def step(self) -> None:
+        """Advance the worlds whose ``stepping`` flag is set by one control period with
+        ``self.actions``: each component clipped to [-1, 1] and scaled by ``blade_speed``, the move
+        cut short at the blade's range; the bottom follows the target surface under the blade
+        (vertical speed at most ``blade_speed``). Then observe and reward them."""
+        idx = self._all if self.stepping.all() else np.flatnonzero(self.stepping)
+        if not idx.size:
+            return
         a = self.actions[idx]
         bad = ~np.all(np.isfinite(a), axis=1)
         if bad.any():
@@ -463,14 +472,19 @@ class SandLevelScene:
         out = np.concatenate([rgb[0], gap, rgb[1]], axis=1)
         return (np.kron(out, np.ones((scale, scale, 1))) * 255).astype(np.uint8)
 
-    def info(self, b: int) -> dict[str, Any]:
-        """World b's info of the last step or reset."""
-        return {
-            "error": float(self.error[b]),
-            "initial_error": float(self.initial_error[b]),
-            "grains_lost": int(self.grains_lost[b]),
-            "is_success": bool(self.success[b]),
-        }
+    # ------------------------------------------------------------------ the engine's Task protocol
+    info_keys = ("error", "initial_error", "grains_lost")
+    int_info = ("grains_lost",)
+    nested_infos: dict[str, tuple[tuple[str, ...], np.ndarray]] = {}
+    reset_options = ("target",)
+    owner = "PenaltySandLevel"
+
+    def first_bad_action(self, skip: np.ndarray) -> int:
+        bad = ~np.all(np.isfinite(self.actions), axis=1) & ~skip
+        return int(np.argmax(bad)) if bad.any() else -1
+
+    def renderer(self) -> Any:
+        return self  # (frame(b): the maps of world b)
 
     def describe(self) -> str:
         """The derived physics, one line."""

@@ -43,6 +43,8 @@ __all__ = [
     "SAND_SETTLE_SPEED",
     "SAND_LATTICE",
     "SAND_V1_GRAIN_MASS",
+    "MAX_EPISODE_STEPS",
+    "SAND_V1_EPISODE_STEPS",
     "HEIGHTMAP_CELLS",
     "HEIGHTMAP_CELL",
     "ARENA_HALF_WIDTH",
@@ -143,6 +145,8 @@ SAND_SETTLE_TIME = (2.0, 20.0)  # a bed settles for at least / at most this much
 SAND_SETTLE_SPEED = 0.02  # ... until no grain moves faster than this, m/s
 SAND_LATTICE = 2.2  # the grains start on a square lattice of this many radii (jittered by 10% of a radius)
 SAND_V1_GRAIN_MASS = 0.5  # the Sand-v1 ids' grain mass, kg (registered; the env docstring's version history)
+MAX_EPISODE_STEPS = 150  # the registered ids' episode length: 6 s of simulated time at the default 0.04 s
+SAND_V1_EPISODE_STEPS = 300  # registered for the Sand-v1 ids: 12 s (the docstring's version history)
 HEIGHTMAP_CELLS = 5  # the observation's sand height map: this many cells per horizontal axis
 HEIGHTMAP_CELL = 0.2  # ... each this wide, m, centred on the ball
 

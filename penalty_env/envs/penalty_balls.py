@@ -1,6 +1,6 @@
 """PenaltyBalls: push a ball to a goal in a spherical bowl, on the penalty-contact physics core.
 
-``PenaltyBallsEnv`` is the Gymnasium env; ``PenaltyBallsVectorEnv`` (:mod:`.vector`) is its native
+``PenaltyBallsEnv`` is the Gymnasium env; ``PenaltyBallsVectorEnv`` is its native
 vector twin (all worlds stepped in one Numba call). Both drive one
 :class:`~penalty_env.envs.scene.PenaltyBallsScene`, as does the SB3 adapter (:mod:`penalty_env.sb3`),
 so all three produce the same episodes.
@@ -10,19 +10,16 @@ from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
-import numpy as np
-from gymnasium import error, logger
+from gymnasium.vector import AutoresetMode
 
-from .params import CHOICE_PARAMETERS, PARAMETERS, check_options, check_seed, coerce_action, render_fps
-from .render import HumanWindow, Renderer
+from .. import _validate as V
+from .checks import render_fps
+from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
+from .params import CHOICE_PARAMETERS, MAX_EPISODE_STEPS, PARAMETERS, SAND_V1_EPISODE_STEPS
 from .scene import PenaltyBallsScene
-from .vector import MAX_EPISODE_STEPS, PenaltyBallsVectorEnv
 from .views import OBS_MODES, Views, pop_view_kwargs
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS", "SAND_V1_EPISODE_STEPS"]
-
-SAND_V1_EPISODE_STEPS = 300  # registered for the Sand-v1 ids: 12 s (the docstring's version history)
 
 
 def _parameters_table() -> str:
@@ -34,7 +31,7 @@ def _parameters_table() -> str:
     return "\n".join(rows)
 
 
-class PenaltyBallsEnv(gym.Env[Any, np.ndarray]):
+class PenaltyBallsEnv(TaskEnv):
     """
     ## Description
 
@@ -349,72 +346,60 @@ class PenaltyBallsEnv(gym.Env[Any, np.ndarray]):
     OBS_MODES: tuple[str, ...] = OBS_MODES  # obs_mode's values (the env pages list each one's space)
 
     def __init__(self, dim: int = 3, render_mode: str | None = None, **kwargs: Any) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        check_render_mode(render_mode, self.metadata["render_modes"])
         view_kwargs = pop_view_kwargs(kwargs)
-        self.scene = PenaltyBallsScene(1, dim=dim, **kwargs)
-        self.views = Views(self.scene, **view_kwargs)
-        self._view = None if self.views.is_state else self.views  # None: the state vector, as it is
-        self.dim = self.scene.dim
-        self.render_mode = render_mode
-        self.metadata = dict(self.metadata, render_fps=render_fps(self.scene.control_period))
-        self.action_space = self.scene.action_space
-        self.observation_space = self.views.space
-        self._action_shape = self.action_space.shape
-        self._actions = self.scene.actions
-        self._buffers = self.scene.buffers
-        self._obs = self.scene.obs
-        self._needs_reset = True
-        self._renderer: Renderer | None = None
-        self._window: HumanWindow | None = None
+        scene = PenaltyBallsScene(1, dim=dim, **kwargs)
+        self.views = Views(scene, **view_kwargs)
+        self._attach(scene, self.views, render_mode)
 
-    def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        if self._needs_reset:
-            raise error.ResetNeeded("Cannot call PenaltyBallsEnv.step() before reset()")
-        # fast path: a float array of the right shape is copied straight into the kernel's buffer
-        if type(action) is not np.ndarray or action.shape != self._action_shape or action.dtype.kind != "f":
-            action = coerce_action(action, self._action_shape)
-        self._actions[0] = action
-        self.scene.step()  # NaN / inf actions raise ValueError here, before anything moves
-        info = self.scene.info(0)
-        if self.render_mode == "human":
-            self.render()
-        obs = self._obs[0].copy() if self._view is None else self._view.single(0)
-        return obs, float(self._buffers.reward[0]), bool(self._buffers.success[0]), False, info
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
-        seed = check_seed(seed)
-        options = check_options(options, ("randomize",))
-        super().reset(seed=seed)
-        self.scene.reset_worlds([0], [self.np_random], randomize=options.get("randomize"))
-        self._needs_reset = False
-        if self.render_mode == "human":
-            self.render()
-        return self._obs[0].copy() if self._view is None else self._view.single(0), self.scene.info(0)
+class PenaltyBallsVectorEnv(TaskVectorEnv):
+    """N PenaltyBalls worlds stepped together: one Numba call per step (threads for large N).
 
-    def render(self) -> np.ndarray | None:
-        if self.render_mode is None:
-            logger.warn(
-                "You are calling render method without specifying any render mode. "
-                'Pass render_mode="rgb_array" or "human" when making the env.'
-            )
-            return None
-        if self._renderer is None:
-            self._renderer = Renderer(self.scene, self.scene.params["render_width"], self.scene.params["render_height"])
-        frame = self._renderer.frame(0)
-        if self.render_mode == "rgb_array":
-            return frame
-        if self._window is None:
-            self._window = HumanWindow(
-                frame.shape[1], frame.shape[0], self.metadata["render_fps"], title=f"PenaltyBalls ({self.dim}D)"
-            )
-        self._window.show(frame)
-        return None
+    The same task, spaces and keyword arguments as :class:`PenaltyBallsEnv`, plus
+    ``num_envs``, ``max_episode_steps`` (the vector env truncates episodes itself) and
+    ``autoreset_mode`` (default ``NEXT_STEP``, Gymnasium's default; ``SAME_STEP`` and
+    ``DISABLED`` are supported as Gymnasium's ``SyncVectorEnv`` implements them). World i draws
+    its starts from its own generator, seeded ``seed + i`` by ``reset(seed=seed)``, so the
+    episodes are exactly those of N single envs seeded ``seed + i`` (and of a ``SyncVectorEnv``
+    of them, infos included). ``render()`` returns one frame per world.
 
-    def close(self) -> None:
-        if self._window is not None:
-            self._window.close()
-            self._window = None
+    ``obs_mode`` (``"state"``, ``"heightmap"``, ``"rgb"`` or a tuple of them, with
+    ``heightmap_cells``, ``heightmap_cell``, ``rgb_size``: :class:`PenaltyBallsEnv`'s "Observation
+    Space") is observed for the whole batch in one Numba call per mode after each step
+    (:class:`~.views.Views`); a ``Dict`` mode's batch is a dict of arrays with a leading world
+    axis, and ``SAME_STEP``'s ``final_obs`` holds each ended world's last observation in the
+    same mode.
+    """
+
+    metadata = {
+        "render_modes": ["rgb_array"],
+        "render_fps": render_fps(PARAMETERS["control_period"][0]),
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        dim: int = 3,
+        max_episode_steps: int = MAX_EPISODE_STEPS,
+        render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **kwargs: Any,
+    ) -> None:
+        max_episode_steps = check_episode_steps(max_episode_steps)
+        check_render_mode(render_mode, self.metadata["render_modes"])
+        mode = check_autoreset_mode(autoreset_mode)
+        scene, self.views = self.parts(num_envs, dim, "PenaltyBallsVectorEnv.__init__", **kwargs)
+        self._attach(scene, self.views, max_episode_steps, render_mode, mode)
+
+    @staticmethod
+    def parts(n_worlds: int, dim: int, owner: str, **kwargs: Any) -> tuple[PenaltyBallsScene, Views]:
+        """The scene of ``n_worlds`` worlds and its view (``obs_mode`` and its keywords), from the
+        env's keyword arguments (the SB3 ``VecEnv`` builds its worlds with this too)."""
+        view_kwargs = pop_view_kwargs(kwargs)
+        scene = PenaltyBallsScene(V.integer("num_envs", n_worlds, 1), dim=dim, owner=owner, **kwargs)
+        return scene, Views(scene, **view_kwargs)
 
 
 PenaltyBallsEnv.__doc__ = (PenaltyBallsEnv.__doc__ or "").replace("{parameters}", _parameters_table().strip())

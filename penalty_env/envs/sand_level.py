@@ -14,22 +14,18 @@ from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
-import numpy as np
-from gymnasium import error
-from gymnasium.utils import seeding
-from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
+from gymnasium.vector import AutoresetMode
 
 from .. import _validate as V
+from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
 from .level_scene import LEVEL_EPISODE_STEPS, LEVEL_PARAMETERS, SandLevelScene
-from .params import check_options, check_seed, coerce_action
+from .views import StateView
 
 
 # ----------------------------------------------------------------------------------------------
 # The environments
 # ----------------------------------------------------------------------------------------------
-class PenaltySandLevelEnv(gym.Env[np.ndarray, np.ndarray]):
+class PenaltySandLevelEnv(TaskEnv):
     """
     ## Description
 
@@ -150,42 +146,9 @@ class PenaltySandLevelEnv(gym.Env[np.ndarray, np.ndarray]):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
     def __init__(self, dim: int = 3, render_mode: str | None = None, **kwargs: Any) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be 'rgb_array' or None, got {render_mode!r}")
-        self.scene = SandLevelScene(1, dim=dim, **kwargs)
-        self.dim = self.scene.dim
-        self.render_mode = render_mode
-        self.metadata = dict(self.metadata, render_fps=max(1, round(1.0 / self.scene.control_period)))
-        self.action_space = self.scene.action_space
-        self.observation_space = self.scene.observation_space
-        self._needs_reset = True
-
-    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        if self._needs_reset:
-            raise error.ResetNeeded("Cannot call PenaltySandLevelEnv.step() before reset()")
-        scene = self.scene
-        scene.actions[0] = coerce_action(action, (scene.action_size,))
-        scene.step()
-        return scene.obs[0].copy(), float(scene.reward[0]), bool(scene.success[0]), False, scene.info(0)
-
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        seed = check_seed(seed)
-        options = check_options(options, ("target",), "PenaltySandLevel")
-        target = options.get("target")
-        targets = None if target is None else [self.scene.check_target(target)]
-        super().reset(seed=seed)
-        self.scene.reset_worlds([0], [self.np_random], targets)
-        self._needs_reset = False
-        return self.scene.obs[0].copy(), self.scene.info(0)
-
-    def render(self) -> np.ndarray | None:
-        """``render_mode="rgb_array"``: :meth:`SandLevelScene.frame` of the world."""
-        if self.render_mode is None:
-            gym.logger.warn('You are calling render without a render mode; pass render_mode="rgb_array".')
-            return None
-        return self.scene.frame(0)
+        check_render_mode(render_mode, self.metadata["render_modes"])
+        scene = SandLevelScene(1, dim=dim, **kwargs)
+        self._attach(scene, StateView(scene), render_mode)
 
 
 def _parameters_table() -> str:
@@ -199,14 +162,15 @@ def _parameters_table() -> str:
 PenaltySandLevelEnv.__doc__ = (PenaltySandLevelEnv.__doc__ or "").replace("{parameters}", _parameters_table().strip())
 
 
-class PenaltySandLevelVectorEnv(VectorEnv):
+class PenaltySandLevelVectorEnv(TaskVectorEnv):
     """N PenaltySandLevel worlds stepped together on one batched ``World``: the same task, spaces
-    and keyword arguments as :class:`PenaltySandLevelEnv`, plus ``num_envs`` and
-    ``max_episode_steps`` (the vector env truncates episodes itself). Autoreset is Gymnasium's
-    default ``NEXT_STEP``: the step after an episode ends resets that world (its observation, reward
-    0, not stepped). World i draws from its own generator, seeded ``seed + i`` by
-    ``reset(seed=seed)``, so its episodes are those of a single env seeded ``seed + i``.
-    ``reset(options={"target": map})`` gives every reset world that target (this reset only)."""
+    and keyword arguments as :class:`PenaltySandLevelEnv`, plus ``num_envs``,
+    ``max_episode_steps`` (the vector env truncates episodes itself) and ``autoreset_mode``
+    (Gymnasium's three modes; default ``NEXT_STEP``: the step after an episode ends resets that
+    world: its observation, reward 0, not stepped). World i draws from its own generator, seeded
+    ``seed + i`` by ``reset(seed=seed)``, so its episodes are those of a single env seeded
+    ``seed + i``. ``reset(options={"target": map})`` gives every reset world that target (this
+    reset only)."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10, "autoreset_mode": AutoresetMode.NEXT_STEP}
 
@@ -216,106 +180,18 @@ class PenaltySandLevelVectorEnv(VectorEnv):
         dim: int = 3,
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         **kwargs: Any,
     ) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be 'rgb_array' or None, got {render_mode!r}")
-        self.scene = SandLevelScene(
-            V.integer("num_envs", num_envs, 1), dim=dim, owner="PenaltySandLevelVectorEnv.__init__", **kwargs
-        )
-        self.num_envs = self.scene.n_worlds
-        self.dim = self.scene.dim
-        if max_episode_steps is None:
-            max_episode_steps = LEVEL_EPISODE_STEPS[self.dim]
-        self.max_episode_steps = V.integer("max_episode_steps", max_episode_steps, 1)
-        self.render_mode = render_mode
-        self.single_action_space = self.scene.action_space
-        self.single_observation_space = self.scene.observation_space
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        N = self.num_envs
-        self._rngs: list[np.random.Generator | None] = [None] * N
-        self._steps = np.zeros(N, dtype=np.int64)
-        self._done = np.zeros(N, dtype=np.bool_)
-        self._started = False
+        check_render_mode(render_mode, self.metadata["render_modes"])
+        mode = check_autoreset_mode(autoreset_mode)
+        scene, view = self.parts(num_envs, dim, "PenaltySandLevelVectorEnv.__init__", **kwargs)
+        steps = check_episode_steps(LEVEL_EPISODE_STEPS[scene.dim] if max_episode_steps is None else max_episode_steps)
+        self._attach(scene, view, steps, render_mode, mode)
 
-    def reset(
-        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        N = self.num_envs
-        options = check_options(options, ("reset_mask", "target"), "PenaltySandLevel")
-        if isinstance(seed, (list, tuple, np.ndarray)):
-            seeds = [check_seed(s) for s in seed]
-            if len(seeds) != N:
-                raise ValueError(f"seed must be None, an int or a list of {N} seeds, got {len(seeds)}")
-        else:
-            s = check_seed(seed)
-            seeds = [None] * N if s is None else [s + i for i in range(N)]
-            super().reset(seed=s)
-        mask = options.get("reset_mask")
-        if mask is None:
-            mask = np.ones(N, dtype=np.bool_)
-        elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (N,) and mask.any()):
-            raise ValueError(f"options['reset_mask'] must be a bool array of shape ({N},) with a True value")
-        target = options.get("target")
-        idx = np.flatnonzero(mask)
-        targets = None if target is None else [self.scene.check_target(target)] * len(idx)
-        for i in idx:
-            if seeds[i] is not None or self._rngs[i] is None:
-                self._rngs[i] = seeding.np_random(seeds[i])[0]
-        self.scene.reset_worlds(idx, [self._rngs[i] for i in idx], targets)
-        self._steps[idx] = 0
-        self._done[idx] = False
-        self._started = True
-        return self.scene.obs.copy(), self._infos(mask)
-
-    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        if not self._started:
-            raise error.ResetNeeded("Cannot call PenaltySandLevelVectorEnv.step() before reset()")
-        scene = self.scene
-        scene.actions[:] = coerce_action(actions, (self.num_envs, scene.action_size))
-        resetting = np.flatnonzero(self._done)
-        stepping = np.flatnonzero(~self._done)
-        bad = ~np.all(np.isfinite(scene.actions[stepping]), axis=1)
-        if bad.any():  # refuse before any world moves or resets
-            b = int(stepping[np.argmax(bad)])
-            raise ValueError(f"the action of world {b} contains NaN or inf: {scene.actions[b].tolist()}")
-        if resetting.size:
-            scene.reset_worlds(resetting, [self._rngs[i] for i in resetting])
-            self._steps[resetting] = -1
-        if stepping.size:
-            scene.step(stepping)
-        self._steps += 1
-        terminated = scene.success.copy()
-        truncated = self._steps >= self.max_episode_steps
-        truncated[resetting] = False
-        self._done[:] = terminated | truncated
-        return scene.obs.copy(), scene.reward.copy(), terminated, truncated, self._infos()
-
-    def render(self) -> tuple[np.ndarray, ...] | None:
-        """``render_mode="rgb_array"``: one frame per world (:meth:`SandLevelScene.frame`)."""
-        if self.render_mode is None:
-            gym.logger.warn('You are calling render without a render mode; pass render_mode="rgb_array".')
-            return None
-        return tuple(self.scene.frame(b) for b in range(self.num_envs))
-
-    def _infos(self, mask: np.ndarray | None = None) -> dict[str, Any]:
-        """Gymnasium's vector info dict: one array per key and its ``_key`` mask (``mask``: the
-        worlds just reset, after a reset with ``options["reset_mask"]``; the others' entries are
-        zero and masked out, as ``SyncVectorEnv`` reports them)."""
-        s = self.scene
-        present = np.ones(self.num_envs, dtype=np.bool_) if mask is None else mask.copy()
-        infos: dict[str, Any] = {}
-        for key, value in (
-            ("error", s.error.copy()),
-            ("initial_error", s.initial_error.copy()),
-            ("grains_lost", s.grains_lost.copy()),
-            ("is_success", s.success.copy()),
-        ):
-            value[~present] = 0
-            infos[key] = value
-            infos["_" + key] = present
-        return infos
-
-    def __repr__(self) -> str:
-        return f"PenaltySandLevelVectorEnv({self.dim}D, num_envs={self.num_envs})"
+    @staticmethod
+    def parts(n_worlds: int, dim: int, owner: str, **kwargs: Any) -> tuple[SandLevelScene, StateView]:
+        """The scene of ``n_worlds`` worlds and its view, from the env's keyword arguments (the SB3
+        ``VecEnv`` builds its worlds with this too)."""
+        scene = SandLevelScene(V.integer("num_envs", n_worlds, 1), dim=dim, owner=owner, **kwargs)
+        return scene, StateView(scene)

@@ -420,7 +420,7 @@ class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene, StartScene):
         worlds: Sequence[int] | np.ndarray,
         rngs: Sequence[np.random.Generator | None],
         observe: bool = True,
-        randomize: Any = None,
+        options: Any = None,
     ) -> None:
         """Draw a new start for each world in ``worlds`` from the matching generator in ``rngs``,
         and (``observe``) compute its observation. With ``observe=False`` the world's flag is left
@@ -428,6 +428,7 @@ class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene, StartScene):
         each world's physics (``randomize``: ranges that replace some of the make-time ones for
         these resets, each within its make-time range)."""
         idx = np.asarray(worlds, dtype=np.int64)
+        randomize = None if options is None else options.get("randomize")
         # horizontal positions (k, n + 1, d - 1): the balls, then the goal; lifted onto the
         # terrain together below
         gens = [rng for rng in rngs if rng is not None]
@@ -463,18 +464,36 @@ class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene, StartScene):
             self._run(idx, self._split(idx))
             self.stepping[idx] = True
 
-    # ------------------------------------------------------------------ read-out
+    # ------------------------------------------------------------------ read-out (the engine's Task protocol)
     INFO_KEYS = KE.INFO_KEYS
+    info_keys = KE.INFO_KEYS[:-1]
+    int_info: tuple[str, ...] = ()
+    reset_options = ("randomize",)
+    owner = "PenaltyBalls"
 
-    def info(self, b: int) -> dict[str, Any]:
-        """World b's info dict of the last step or reset: numpy float64 scalars, and ``is_success``
-        a Python bool (Gymnasium's own vector envs batch a numpy bool into an object array)."""
-        buf = self.buffers
-        info = dict(zip(KE.INFO_KEYS, buf.info[:, b]))  # iterating a float64 array gives its scalars
-        info["is_success"] = bool(buf.success[b])
-        if self.randomize:
-            info["randomization"] = self.randomization(b)
-        return info
+    @property
+    def reward(self) -> np.ndarray:
+        return self.buffers.reward
+
+    @property
+    def success(self) -> np.ndarray:
+        return self.buffers.success
+
+    @property
+    def info_values(self) -> np.ndarray:
+        return self.buffers.info
+
+    @property
+    def nested_infos(self) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:
+        return {"randomization": (tuple(self.randomize), self.drawn)} if self.randomize else {}
+
+    def first_bad_action(self, skip: np.ndarray) -> int:
+        return int(KE.first_bad_action(self.actions, skip))
+
+    def renderer(self) -> Any:
+        from .render import Renderer
+
+        return Renderer(self, self.params["render_width"], self.params["render_height"])
 
     def describe(self) -> str:
         """The derived physics, one line."""

@@ -48,7 +48,7 @@ from .render import (
 )
 from .view_kernels import _BUMPY, _KINDS, TerrainHeights, heightmap_worlds, rgb_worlds, terrain_images
 
-__all__ = ["Views", "OBS_MODES", "VIEW_PARAMETERS", "pop_view_kwargs", "check_obs_mode"]
+__all__ = ["Views", "StateView", "OBS_MODES", "VIEW_PARAMETERS", "pop_view_kwargs", "check_obs_mode"]
 
 OBS_MODES = ("state", "heightmap", "rgb")
 
@@ -101,6 +101,22 @@ def _check_parameter(name: str, value: Any) -> Any:
     if isinstance(default, int):
         return V.integer(name, value, lo, hi, meaning)
     return V.in_range(name, value, lo, hi, meaning)
+
+
+class StateView:
+    """The engine's view of a task observed by its state vector alone (the task's ``obs``)."""
+
+    is_state = True
+
+    def __init__(self, scene: Any) -> None:
+        self.scene = scene
+        self.space = scene.observation_space
+
+    def observe(self, worlds: Sequence[int] | np.ndarray | None = None) -> np.ndarray:
+        return self.scene.obs.copy() if worlds is None else self.scene.obs[worlds]
+
+    def item(self, batch: np.ndarray, t: int) -> np.ndarray:
+        return batch[t].copy()
 
 
 class Views:

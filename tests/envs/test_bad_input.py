@@ -137,7 +137,7 @@ ENV_CASES = _env_kwarg_cases() + [
         lambda: PenaltyBallsVectorEnv(num_envs=2, max_episode_steps=0),
         "max_episode_steps",
         "0",
-        ">= 1",
+        "[1, inf]",
     ),
     (
         "autoreset_mode unknown",

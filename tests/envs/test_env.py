@@ -163,7 +163,7 @@ def test_truncates_at_max_episode_steps():
         (0.5, "shape (2,)"),
         (np.array([np.nan, 0.0], np.float32), "NaN or inf"),
         (np.array([0.0, np.inf]), "NaN or inf"),
-        (["a", "b"], "array of numbers"),
+        (["a", "b"], "array of real numbers"),
     ],
 )
 def test_a_bad_action_is_refused_and_nothing_moves(action, words):

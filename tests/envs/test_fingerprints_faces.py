@@ -10,6 +10,7 @@ terrain's cases are checked only on a host of the kind that recorded them (AVX-5
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import pathlib
@@ -70,10 +71,10 @@ def vector(env_id: str, n: int, steps: int, **kwargs) -> str:
     venv = gym.make_vec(env_id, num_envs=n, **kwargs)
     rng = np.random.default_rng(7)
     obs, info = venv.reset(seed=0)
-    out = [obs, info]
+    out = [copy.deepcopy(obs), info]  # (copies: what a step returned, as it was then)
     for _ in range(steps):
         obs, r, te, tr, info = venv.step(rng.uniform(-1, 1, (n,) + venv.single_action_space.shape))
-        out += [obs, r, te, tr, info]
+        out += [copy.deepcopy(obs), r, te, tr, copy.deepcopy(info)]
     return _hash(out)
 
 

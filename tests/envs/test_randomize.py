@@ -16,7 +16,7 @@ from numba.core import event as numba_event
 import penalty_env  # noqa: F401 (registers the ids)
 from penalty_env.envs.randomize import RandomizationWarning
 from penalty_env.envs.scene import PenaltyBallsScene
-from penalty_env.envs.vector import PenaltyBallsVectorEnv
+from penalty_env.envs.penalty_balls import PenaltyBallsVectorEnv
 from penalty_env.physics import theory
 from penalty_env.sb3 import make_vec_env
 

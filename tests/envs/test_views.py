@@ -46,7 +46,7 @@ def body_tops(scene, cells, heights):
 
 def test_state_mode_is_the_default_path_and_the_dict_state_entry_equals_it():
     plain = gym.make("PenaltyBalls-v0")
-    assert plain.unwrapped._view is None and plain.observation_space == plain.unwrapped.scene.observation_space
+    assert plain.unwrapped.batch.state_view and plain.observation_space == plain.unwrapped.scene.observation_space
     both = gym.make("PenaltyBalls-v0", obs_mode=("state", "rgb"))
     a, _ = plain.reset(seed=5)
     b, _ = both.reset(seed=5)
