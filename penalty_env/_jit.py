@@ -43,6 +43,7 @@ import pickle
 import sys
 import tempfile
 import threading
+import types
 import time
 import warnings
 from typing import Any
@@ -358,6 +359,26 @@ def njit(*args, entry: bool = False, hot: bool = False, **kwargs):
     if len(args) == 1 and callable(args[0]):
         return decorate(args[0])
     return decorate
+
+
+_TWINS: dict[Any, Any] = {}
+
+
+def python_twin(kernel: Any) -> Any:
+    """A kernel's source run by Python, its kernel callees likewise (a callee has no wrapper that
+    Python could call): one source for a rule that a reset runs compiled over many worlds and a
+    constructor runs once, without compiling it."""
+    twin = _TWINS.get(kernel)
+    if twin is None:
+        func = kernel.py_func
+        names = dict(func.__globals__)
+        twin = _TWINS[kernel] = types.FunctionType(
+            func.__code__, names, func.__name__, func.__defaults__, func.__closure__
+        )
+        for k, v in func.__globals__.items():  # (after the entry above: a module's kernels name each other)
+            if isinstance(v, numba.core.registry.CPUDispatcher):
+                names[k] = python_twin(v)
+    return twin
 
 
 def overload_kernel(func: Any, hot: bool = False) -> Any:

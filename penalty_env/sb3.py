@@ -26,7 +26,7 @@ from . import _validate as V
 from .envs.checks import check_options, check_seed, render_fps
 from .envs.engine import Batch
 from .envs.faces import check_episode_steps
-from .envs.params import MAX_EPISODE_STEPS
+from .envs.balls.params import MAX_EPISODE_STEPS
 from .envs.penalty_balls import PenaltyBallsVectorEnv
 
 __all__ = ["PenaltyBallsVecEnv", "make_vec_env"]

@@ -1,6 +1,6 @@
 """The PenaltyBalls Gymnasium environments (single, native vector) on the physics core."""
 
 from .penalty_balls import MAX_EPISODE_STEPS, PenaltyBallsEnv, PenaltyBallsVectorEnv
-from .scene import PARAMETERS, PenaltyBallsScene
+from .balls.scene import PARAMETERS, PenaltyBallsScene
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "PenaltyBallsScene", "PARAMETERS", "MAX_EPISODE_STEPS"]

@@ -96,7 +96,7 @@ class TaskEnv(gym.Env):
         if self.render_mode == "rgb_array":
             return frame
         if self._window is None:
-            from .render import HumanWindow
+            from .views.render import HumanWindow
 
             title = f"{type(self).__name__.removesuffix('Env')} ({self.dim}D)"
             self._window = HumanWindow(frame.shape[1], frame.shape[0], self.metadata["render_fps"], title=title)

@@ -20,9 +20,9 @@ from gymnasium.vector import AutoresetMode
 
 from .. import _validate as V
 from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
-from .params import MAX_EPISODE_STEPS
+from .balls.params import MAX_EPISODE_STEPS
 from .penalty_balls import PenaltyBallsEnv, PenaltyBallsVectorEnv
-from .scene import PenaltyBallsScene
+from .balls.scene import PenaltyBallsScene
 from .views import pop_view_kwargs
 
 __all__ = ["PenaltyBallsGoalEnv", "PenaltyBallsGoalVectorEnv", "GoalView", "GoalReward", "REWARD_TYPES", "goal_distance"]

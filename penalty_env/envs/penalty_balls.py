@@ -15,8 +15,8 @@ from gymnasium.vector import AutoresetMode
 from .. import _validate as V
 from .checks import render_fps
 from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
-from .params import CHOICE_PARAMETERS, MAX_EPISODE_STEPS, PARAMETERS, SAND_V1_EPISODE_STEPS
-from .scene import PenaltyBallsScene
+from .balls.params import CHOICE_PARAMETERS, MAX_EPISODE_STEPS, PARAMETERS, SAND_V1_EPISODE_STEPS
+from .balls.scene import PenaltyBallsScene
 from .views import OBS_MODES, Views, pop_view_kwargs
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS", "SAND_V1_EPISODE_STEPS"]

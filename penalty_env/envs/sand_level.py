@@ -18,7 +18,7 @@ from gymnasium.vector import AutoresetMode
 
 from .. import _validate as V
 from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
-from .level_scene import LEVEL_EPISODE_STEPS, LEVEL_PARAMETERS, SandLevelScene
+from .level.scene import LEVEL_EPISODE_STEPS, LEVEL_PARAMETERS, SandLevelScene
 from .views import StateView
 
 

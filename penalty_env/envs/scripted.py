@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .observation import ObservationLayout
+from .balls.layout import ObservationLayout
 
 __all__ = ["ScriptedPusher", "RasterSweep"]
 

@@ -104,6 +104,9 @@ class ContactConfig:
     cost_per_contact: float  # force-evaluation equivalents per contact duration
     cost_per_second: float  # force-evaluation equivalents per simulated second
     alternatives: list = field(default_factory=list)  # (cost, integrator, events, steps) considered
+    # the penetration scale s: ks and ks_terrain were multiplied by s^2, kd and kd_terrain by s (and dt
+    # divided by s) so that the exact peak overlap meets the tolerance; 1 when the impact rule alone does
+    stiffening: float = 1.0
 
     def world_kwargs(self) -> dict:
         return dict(
@@ -271,6 +274,7 @@ def _chosen(
         cost_per_contact=cost,
         cost_per_second=cost / t_c_min,
         alternatives=[(round(o[0], 3), o[1], o[2], round(o[3], 3)) for o in options],
+        stiffening=scale,
     )
 
 

@@ -10,9 +10,10 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
+from .._jit import njit, python_twin
 from .model import Model, inertia_factor
 
-__all__ = ["ParameterAccess", "per_world_model"]
+__all__ = ["ParameterAccess", "per_world_model", "lightest_pair", "rolling_defaults"]
 
 _SCALARS = ("ks", "kd", "ks_terrain", "kd_terrain", "mu", "kf")
 
@@ -153,17 +154,24 @@ class ParameterAccess:
         cur.update({name: getattr(model, name)[idx] for name in ("inv_mass", "radii", "kf") if name not in cur})
         merged = dict(cur, **new)
         masses_now = 1.0 / merged["inv_mass"]
-        if self._kf_default and not kf_given:  # (the constructor's default, world by world)
-            light = _lightest(masses_now)
-            if self.rotation:
-                c = inertia_factor(len(self.gravity))
-                light = light * c / (1.0 + c)
-            merged["kf"] = light / self.dt
         spin = self._spin
-        if spin is not None and self.rotation:
-            inertia = inertia_factor(len(self.gravity)) * masses_now * merged["radii"] ** 2
-            merged["inv_inertia"] = 1.0 / inertia
-            merged["kr"] = spin.kr[idx] if not self._kr_default else _lightest(inertia) / self.dt
+        if spin is not None and self.rotation:  # (the constructor's defaults, world by world)
+            c = inertia_factor(len(self.gravity))
+            inv_inertia = np.empty_like(merged["radii"])
+            scratch = np.zeros((2, inv_inertia.shape[1]))
+            defaults = python_twin(rolling_defaults)
+            kf_kr = np.array(
+                [
+                    defaults(merged["inv_mass"][t], merged["radii"][t], c, self.dt, inv_inertia[t], scratch)
+                    for t in range(len(idx))
+                ]
+            ).reshape(len(idx), 2)
+            merged["inv_inertia"] = inv_inertia
+            merged["kr"] = spin.kr[idx] if not self._kr_default else kf_kr[:, 1]
+            if self._kf_default and not kf_given:
+                merged["kf"] = kf_kr[:, 0]
+        elif self._kf_default and not kf_given:
+            merged["kf"] = _lightest(masses_now) / self.dt
         if guard and not self.allow_unstable:
             self._guard_worlds(idx, merged)
         for name, value in merged.items():
@@ -209,13 +217,44 @@ class ParameterAccess:
                 )
 
 
+@njit
+def lightest_pair(values):
+    """Of one world's masses (or moments of inertia): the smallest effective mass of a contact, a
+    pair's m_i m_j / (m_i + m_j) or a ball's own against the terrain (the guard's)."""
+    s0, s1 = np.inf, np.inf  # the two smallest
+    for i in range(values.shape[0]):
+        m = values[i]
+        if m < s0:
+            s0, s1 = m, s0
+        elif m < s1:
+            s1 = m
+    if s1 == np.inf:
+        return s0
+    return min(s0 * s1 / (s0 + s1), s0)
+
+
+@njit
+def rolling_defaults(inv_mass, radii, c, dt, inv_inertia, scratch):
+    """One world's derived parameters with rotation, from its ``inv_mass`` and ``radii`` (rows):
+    its inverse inertias (``c m r^2``, written into ``inv_inertia``), and the default ``kf`` (the
+    lightest contact's tangential effective mass, ``c / (1 + c)`` of its m_eff, over dt) and ``kr``
+    (the lightest contact's inertia over dt), returned (``scratch``: two working rows at least as
+    long as the balls). :meth:`ParameterAccess.set_parameters` and the randomised environments'
+    resets (compiled) both derive them here."""
+    n = inv_mass.shape[0]
+    masses = scratch[0, :n]
+    inertia = scratch[1, :n]
+    for i in range(n):
+        masses[i] = 1.0 / inv_mass[i]
+        inertia[i] = c * masses[i] * radii[i] ** 2
+        inv_inertia[i] = 1.0 / inertia[i]
+    return lightest_pair(masses) * c / (1.0 + c) / dt, lightest_pair(inertia) / dt
+
+
 def _lightest(rows: np.ndarray) -> np.ndarray:
-    """Per row of masses (or moments of inertia): the smallest effective mass of a contact, a pair's
-    m_i m_j / (m_i + m_j) or a ball's own against the terrain (the guard's, row by row)."""
-    s = np.sort(rows, axis=1)
-    if s.shape[1] < 2:
-        return s[:, 0].copy()
-    return np.minimum(s[:, 0] * s[:, 1] / (s[:, 0] + s[:, 1]), s[:, 0])
+    """Per row of masses (or moments of inertia): :func:`lightest_pair`, row by row."""
+    lightest = python_twin(lightest_pair)
+    return np.array([lightest(row) for row in rows])
 
 
 def _rows(name: str, value: Any, k: int, n: int, positive: bool) -> np.ndarray:

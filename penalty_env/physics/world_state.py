@@ -53,6 +53,12 @@ class StateAccess:
         return self._model
 
     @property
+    def spin(self) -> Any:
+        """The rotation's parameters and buffers (:class:`~.model.Spin`: inverse inertias, rolling
+        resistance, tangential history), or None for balls that neither spin nor carry a history."""
+        return self._spin
+
+    @property
     def state(self) -> State:
         """The World's own ``(B, n, d)`` position and velocity buffers, always batched. For code
         that fuses its own per-step work with the core's kernels (the environments do): after

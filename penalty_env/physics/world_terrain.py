@@ -164,6 +164,17 @@ class TerrainAccess:
         flat = table.heights[b, start : start + nx * ny].copy()
         return flat if self.dim == 2 else flat.reshape(nx, ny)
 
+    def height_table(self, shape: int) -> tuple[np.ndarray, int]:
+        """The live node heights of the HeightField ``terrain[shape]`` as the kernels read them:
+        ``(table, start)``, ``table`` the World's (B, m) height table (every height field's nodes,
+        one row per world; not a copy: :meth:`set_heights` writes it) and ``start`` this field's
+        first column (its ``nx * ny`` nodes follow, x-major)."""
+        k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
+        if not isinstance(self.terrain[k], HeightField):
+            raise ValueError(f"terrain[{k}] is a {type(self.terrain[k]).__name__}, not a HeightField")
+        table = self._model.shapes
+        return table.heights, int(table.shape[self._rows[k], INDEX])
+
     def shape_distance(self, shape: int, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """phi and the outward normal of ``terrain[shape]`` at its current pose in one world, at
         ``points`` (..., d): ``(phi (...), normal (..., d))``."""

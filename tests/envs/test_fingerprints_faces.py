@@ -2,7 +2,11 @@
 before ``envs/`` was rebuilt on one base (commit bdc8126): the goal-conditioned ids, the level task,
 each observation mode, domain randomisation, the three autoreset modes of the native vector env, the
 SB3 ``VecEnv`` and the rendered frames. A hash of every observation, reward, flag and info value
-(``data/fingerprints_faces.json``, recorded by this file's ``record`` at bdc8126).
+(``data/fingerprints_faces.json``, recorded by this file's ``record`` at bdc8126). Two sets were
+recorded again since, on purpose: the goal ids' vector observations (bdc8126's were views of the
+scene's buffer that later steps changed: the fingerprint now hashes copies, and the values the steps
+returned are the same), and the PenaltyBalls frames of ``render()`` (pictures, not episodes: drawn
+by the one raster since ``envs/`` was rebuilt, with the observation images' terrain image).
 
 As :mod:`tests.envs.test_fingerprints`, this pins behaviour users rely on, not physics; the bumpy
 terrain's cases are checked only on a host of the kind that recorded them (AVX-512 and FMA).

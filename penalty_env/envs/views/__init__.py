@@ -34,19 +34,19 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from .. import _validate as V
-from .._jit import compile_notice, entry_point
-from ..physics.geometry.table import INDEX
-from ..physics.stepping import runner as _runner
-from .params import ARENA_HALF_WIDTH
-from .render import (
+from ... import _validate as V
+from ..._jit import compile_notice, entry_point
+from ...physics.stepping import runner as runner_module
+from .raster import (
     BALL_COLOR,
     GRAIN_COLOR,
     OBSTACLE_COLOR,
     PUSHER_COLOR,
     VIEW_HALF_WIDTH,
+    heightmap_worlds,
+    rgb_worlds,
+    terrain_images,
 )
-from .view_kernels import _BUMPY, _KINDS, TerrainHeights, heightmap_worlds, rgb_worlds, terrain_images
 
 __all__ = ["Views", "StateView", "OBS_MODES", "VIEW_PARAMETERS", "pop_view_kwargs", "check_obs_mode"]
 
@@ -164,14 +164,18 @@ class Views:
         self.space: spaces.Space = (
             spaces.Dict({m: singles[m] for m in self.modes}) if self.is_dict else singles[self.modes[0]]
         )
-        self.terrain = self._terrain_heights()
+        self.terrain = scene.terrain.heights(scene.world)  # (its height field: the World's live table)
+        self.per_world_terrain = scene.terrain.per_world
         self.colors = 255.0 * np.array(
             [PUSHER_COLOR, BALL_COLOR] + [OBSTACLE_COLOR] * scene.n_obstacles + [GRAIN_COLOR] * scene.n_grains
         )
         # (B, n): each world's radii (a randomised scene's live rows, drawn at each reset; a fixed
         # scene's, repeated: one kernel type for both)
-        rows = getattr(scene, "_radii_rows", None) if getattr(scene, "randomize", None) else None
-        self.radii = rows if rows is not None else np.ascontiguousarray(np.tile(scene.radii, (scene.n_worlds, 1)))
+        self.radii = (
+            scene.world.model.radii
+            if scene.randomize
+            else np.ascontiguousarray(np.tile(scene.radii, (scene.n_worlds, 1)))
+        )
         nb = scene.n_bodies  # drawn: the grains, the obstacles, the pusher, the ball (on top)
         self.order = np.array([*range(nb, scene.n_balls), *range(2, nb), 0, 1], dtype=np.int64)
         self._backgrounds: np.ndarray | None = None
@@ -210,7 +214,7 @@ class Views:
             H = self.heightmap_cells
             W = H if scene.dim == 3 else 1
             hm = np.empty((k, H, W), dtype=np.float32)
-            tail = (x, self.radii, self._current_terrain(), W, self.heightmap_cell, 0.0, self.height_bound)
+            tail = (x, x[:, 0], self.radii, self.terrain, W, self.heightmap_cell, 0.0, self.height_bound)
             self._dispatch("heightmap", heightmap_worlds, idx, hm, tail, _HEIGHTMAP_WORK)
             return hm if scene.dim == 3 else hm.reshape(k, H)
         backgrounds, background_of = self._terrain_images(idx)
@@ -232,7 +236,7 @@ class Views:
 
     def _dispatch(self, name: str, fn: Any, idx: np.ndarray, out: np.ndarray, tail: tuple, work: int) -> None:
         """``fn(worlds, out rows, *tail)`` over the batch, split over threads when it is large."""
-        chunks = _runner.split(idx, work) if idx.size > 1 else [idx]
+        chunks = runner_module.split(idx, work) if idx.size > 1 else [idx]
         calls, start = [], 0
         for c in chunks:
             calls.append((c, out[start : start + c.size]) + tail)
@@ -241,53 +245,16 @@ class Views:
         if kernel is None:
             with compile_notice(f"{name} observation"):
                 kernel = self._kernels[name] = entry_point(fn, calls[0])
-        _runner.dispatch(kernel, calls)
+        runner_module.dispatch(kernel, calls)
 
     # ------------------------------------------------------------------ the terrain
-    def _terrain_heights(self) -> TerrainHeights:
-        """The terrain as :func:`_terrain_height` reads it (the bumpy field's heights are the
-        World's own table, read at every call: ``_current_terrain``)."""
-        s = self.scene
-        kind = _KINDS[s.terrain_kind]
-        fields = dict(
-            kind=kind,
-            radius=float(s.bowl_radius),
-            half_width=float(ARENA_HALF_WIDTH),
-            cap=self.height_bound,
-            heights=np.zeros((1, 1)),
-            start=0,
-            nx=2,
-            ny=1 if s.dim == 2 else 2,
-            origin_x=0.0,
-            origin_y=0.0,
-            cell=1.0,
-        )
-        if kind == _BUMPY:
-            field = s.world.terrain[0]
-            nx, ny = field.grid_shape
-            table = s.world._model.shapes
-            fields.update(
-                start=int(table.shape[s.world._rows[0], INDEX]),
-                nx=int(nx),
-                ny=int(ny),
-                origin_x=float(field.origin[0]),
-                origin_y=float(field.origin[1]) if s.dim == 3 else 0.0,
-                cell=float(field.cell_size[0]),
-            )
-        return TerrainHeights(**fields)
-
-    def _current_terrain(self) -> TerrainHeights:
-        if self.terrain.kind != _BUMPY:
-            return self.terrain
-        return self.terrain._replace(heights=self.scene.world._model.shapes.heights)
-
     def _terrain_images(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The terrain images and each world's row in them: one image for the bowl and the arena
         (the same in every world), one per world on the bumpy ground, redrawn for the worlds of
         ``idx`` whose ``terrain_version`` changed since it was drawn."""
         s = self.scene
         S = self.rgb_size
-        per_world = self.terrain.kind == _BUMPY
+        per_world = self.per_world_terrain
         if self._backgrounds is None:
             count = s.n_worlds if per_world else 1
             self._backgrounds = np.zeros((count, S, S, 3), dtype=np.uint8)
@@ -305,17 +272,17 @@ class Views:
 
     def _draw(self, worlds: np.ndarray) -> None:
         rows = self._background_of[worlds]
-        tail = (self._current_terrain(), self.scale, self.ground, self.scene.dim)
+        tail = (self.terrain, self.scale, self.ground, self.scene.dim)
         assert self._backgrounds is not None
         calls = [(c, rows[c0 : c0 + c.size], self._backgrounds) + tail for c0, c in self._chunked(worlds)]
         kernel = self._kernels.get("terrain")
         if kernel is None:
             with compile_notice("terrain image"):
                 kernel = self._kernels["terrain"] = entry_point(terrain_images, calls[0])
-        _runner.dispatch(kernel, calls)
+        runner_module.dispatch(kernel, calls)
 
     def _chunked(self, worlds: np.ndarray) -> list[tuple[int, np.ndarray]]:
-        chunks = _runner.split(worlds, _RGB_WORK * 8) if worlds.size > 1 else [worlds]
+        chunks = runner_module.split(worlds, _RGB_WORK * 8) if worlds.size > 1 else [worlds]
         out, start = [], 0
         for c in chunks:
             out.append((start, c))

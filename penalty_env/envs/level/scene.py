@@ -13,11 +13,12 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from .. import _validate as V
-from ..physics import Box, Plane, World
-from ..physics.configure import configure
-from . import level_kernel as LK
-from .sand import remembered_bed, settle
+from ... import _validate as V
+from ...physics import Box, Plane, World
+from ..beds import remembered_bed, settle
+from ..contact import ContactRule, configure_task, derive, substeps_for
+from ..terrains.arena import walls as arena_walls
+from . import kernel as LK
 
 __all__ = ["SandLevelScene", "LEVEL_PARAMETERS", "LEVEL_EPISODE_STEPS", "settled_heap"]
 
@@ -140,26 +141,21 @@ class SandLevelScene:
         30% and the core's stability limit for every contact."""
         d, T = self.dim, self.control_period
         column = math.ceil(self.heap_lattice(self.n_grains)[:, -1].max() / (2.0 * GRAIN_RADIUS)) + 1
-        self.config = configure(
-            [GRAIN_MASS, GRAIN_MASS],
-            [GRAIN_RADIUS, GRAIN_RADIUS],
-            max_impact_speed=2.0 * self.blade_speed * math.sqrt(d - 1),
+        rule = ContactRule(
+            speed=2.0 * self.blade_speed * math.sqrt(d - 1),
             penetration=0.1,
             restitution=0.3,
             accuracy=0.3,
-            damping="no_tension",
-            terrain=False,
-            integrators=("symplectic_euler",),
-            events=False,
-            max_dt=T,
-            max_force=column * GRAIN_MASS * GRAVITY,
-            energy_budget=None,
+            force=column * GRAIN_MASS * GRAVITY,
+            gravity=GRAVITY,
+            control_period=T,
         )
-        self.ks, self.kd = self.config.ks, self.config.kd
-        self.ks_terrain = max(self.ks, GRAIN_MASS * GRAVITY / (0.1 * GRAIN_RADIUS))
-        self.kd_terrain = 2.0 * self.config.zeta * math.sqrt(self.ks_terrain * GRAIN_MASS)
+        pair = np.full(2, GRAIN_MASS), np.full(2, GRAIN_RADIUS)
+        self.config = configure_task(rule, *pair)
+        springs = derive(rule, *pair, (0, 1), GRAIN_MASS, self.config.zeta, self.config.stiffening)
+        self.ks, self.kd, self.ks_terrain, self.kd_terrain = springs
         self.gravity = GRAVITY
-        self._common: dict[str, Any] = dict(
+        self.world_kwargs: dict[str, Any] = dict(
             terrain=self._terrain(),
             gravity=(0.0,) * (d - 1) + (-GRAVITY,),
             ks=self.ks,
@@ -177,11 +173,8 @@ class SandLevelScene:
             start_check=False,
         )
         lattice = self.heap_lattice(self.n_grains)
-        probe = World(lattice, self.radii, self.masses, dt=T, allow_unstable=True, **self._common)
-        dt_max = min(self.config.dt, probe.stability_limit())
-        self.substeps = max(1, math.ceil(T / dt_max))
-        if T / self.substeps > dt_max:  # rounding
-            self.substeps += 1
+        probe = World(lattice, self.radii, self.masses, dt=T, allow_unstable=True, **self.world_kwargs)
+        self.substeps = substeps_for(T, min(self.config.dt, probe.stability_limit()))
         self.dt = T / self.substeps
 
     def _terrain(self) -> tuple:
@@ -189,7 +182,7 @@ class SandLevelScene:
         above the arena until a reset places it)."""
         d, L = self.dim, HALF_WIDTH
         up = np.eye(d)[-1]
-        walls = [Plane(-s * L * e, s * e) for e in np.eye(d)[:-1] for s in (1.0, -1.0)]
+        walls = arena_walls(d, L)
         park = np.zeros(d)
         park[-1] = 10.0
         blade = Box(park, self.blade_half, velocity=(0.0,) * d)
@@ -219,7 +212,7 @@ class SandLevelScene:
 
     def _make_world(self) -> None:
         start = np.repeat(self.bed[None], self.n_worlds, axis=0)
-        self.world = World(start, self.radii, self.masses, dt=self.dt, **self._common)
+        self.world = World(start, self.radii, self.masses, dt=self.dt, **self.world_kwargs)
 
     def _spaces(self) -> None:
         d, C, L = self.dim, self.n_cells, HALF_WIDTH
@@ -528,5 +521,5 @@ def settled_heap(scene: SandLevelScene) -> np.ndarray:
 
 def _settle(scene: SandLevelScene) -> tuple[np.ndarray, float, float]:
     lattice = scene.heap_lattice(scene.n_grains)
-    world = World(lattice, scene.radii, scene.masses, dt=scene.dt, **scene._common)
+    world = World(lattice, scene.radii, scene.masses, dt=scene.dt, **scene.world_kwargs)
     return settle(world, scene.dt, SETTLE_TIME, SETTLE_SPEED)

@@ -9,9 +9,10 @@ which env (single, vector, SB3) steps it or on how many worlds share the batch. 
 the reward terms and the penetration diagnostic happen in the same call, so Python touches a batch
 once per step, and nothing is allocated.
 
-The data protocol between the scene and this kernel is named: :class:`TaskParams` (the task's
-constants), :class:`HeightMap` (the sand's height map) and :class:`StepBuffers` (what a step
-writes, one entry per world). Ball order in every world: 0 the pusher, 1 the ball, 2.. the
+The data protocol between the scene and this kernel is named: :class:`StepCall` (a thread's
+worlds and the World's physics), :class:`SceneArrays` (the scene's arrays: actions, flags, goals,
+the observation's layout, :class:`TaskParams` the task's constants and :class:`StepBuffers` what a
+step writes, one entry per world) and :class:`HeightMap` (the sand's height map). Ball order in every world: 0 the pusher, 1 the ball, 2.. the
 obstacles, then the grains. The last axis is "up"; the others are horizontal.
 """
 
@@ -22,14 +23,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._jit import njit
-from ..physics.broadphase.grid import build_grid, uses_cells
-from ..physics.diagnostics import deepest_contact
-from ..physics.per_world import of_world, world_model
-from ..physics.stepping.runner import advance
+from ..._jit import njit
+from ...physics.broadphase.grid import build_grid, uses_cells
+from ...physics.diagnostics import deepest_contact
+from ...physics.per_world import of_world, world_model
+from ...physics.stepping.runner import advance
+from ..terrains import TerrainHeights, terrain_height
 
 __all__ = [
     "TaskParams",
+    "SceneArrays",
+    "StepCall",
     "StepBuffers",
     "HeightMap",
     "INFO_KEYS",
@@ -78,7 +82,7 @@ class HeightMap(NamedTuple):
     first: int  # the first grain's index (the bodies come before)
     cells: int  # cells per horizontal axis
     cell: float  # their edge, m
-    bowl_radius: float  # the floor: the bowl of this radius (its bottom at the origin), or flat (0)
+    floor: TerrainHeights  # the bare floor (the terrain's height)
     offset: int  # where the map starts in the observation
     top: float  # the depth's upper bound (2 R)
 
@@ -107,6 +111,29 @@ class StepBuffers(NamedTuple):
     distance = property(lambda self: self.info[_R_DISTANCE])  # ball-goal distance, m
     pusher_distance = property(lambda self: self.info[_R_PUSHER])  # pusher-push point distance, m
     max_overlap = property(lambda self: self.info[_R_OVERLAP])  # the largest overlap / the smaller radius
+
+
+class SceneArrays(NamedTuple):
+    """The scene's arrays and constants a step reads and writes."""
+
+    actions: np.ndarray  # (B, d - 1) float64: the throttles asked
+    stepping: np.ndarray  # (B,) bool: off for a world just reset (observed, not stepped)
+    gravity: tuple  # the World's gravity (its length is the dimension)
+    task: TaskParams
+    table: np.ndarray  # the observation layout's rows (kind, a, b)
+    bounds: np.ndarray  # (2, size): the observation's low and high
+    goal: np.ndarray  # (B, d)
+    buffers: StepBuffers
+
+
+class StepCall(NamedTuple):
+    """One thread's share of a step: its worlds, a list of ids to fill, the World's physics bundle
+    and the thread's SIMD-lanes scratch (None on the scalar path)."""
+
+    worlds: np.ndarray
+    ids: np.ndarray
+    physics: object
+    lane_scratch: object
 
 
 def new_buffers(n_worlds: int, obs_size: int, status: np.ndarray) -> StepBuffers:
@@ -242,7 +269,8 @@ def first_bad_action(act, skip):
 def observe_sand(b, x, model, obs, hm, D):
     """World b's sand height map into its observation: in each of the ``hm.cells``^(D-1) cells of
     edge ``hm.cell`` centred on the ball (row-major: x, then y), the depth of the sand there, the
-    highest grain top (z + r) above the bare floor under that grain (0 where there is none),
+    highest grain top (z + r) above the bare floor under that grain (the terrain's height, 0 where
+    there is none),
     clipped to ``hm.top``. One pass over the grains (a non-finite position is skipped)."""
     H = hm.cells
     size = H ** (D - 1)
@@ -250,7 +278,6 @@ def observe_sand(b, x, model, obs, hm, D):
         obs[b, hm.offset + c] = 0.0
     width = H * hm.cell
     inv = 1.0 / hm.cell
-    R = hm.bowl_radius
     for i in range(hm.first, x.shape[1]):
         u = x[b, i, 0] - x[b, 1, 0] + 0.5 * width
         w = x[b, i, 1] - x[b, 1, 1] + 0.5 * width if D == 3 else 0.0
@@ -259,8 +286,7 @@ def observe_sand(b, x, model, obs, hm, D):
         c = min(int(u * inv), H - 1)
         if D == 3:
             c = c * H + min(int(w * inv), H - 1)
-        rho2 = x[b, i, 0] * x[b, i, 0] + (x[b, i, 1] * x[b, i, 1] if D == 3 else 0.0)
-        floor = R - math.sqrt(max(R * R - rho2, 0.0)) if R > 0.0 else 0.0
+        floor = terrain_height(b, x[b, i, 0], x[b, i, 1] if D == 3 else 0.0, hm.floor)
         depth = min(x[b, i, D - 1] + model.radii[i] - floor, hm.top)
         if depth > obs[b, hm.offset + c]:
             obs[b, hm.offset + c] = depth
@@ -311,56 +337,57 @@ def _act_on(worlds, act, stepping, status, throttle, ids):
 
 
 @njit(hot=True)
-def _observe_worlds(worlds, stepping, phys, g, task, table, bounds, goal, buf, hm):
+def _observe_worlds(worlds, phys, s, hm):
     """Observation, reward and diagnostics of every world of ``worlds`` whose physics did not
     blow up (world by world)."""
     x, v, status = phys.x, phys.v, phys.status
-    D = len(g)
+    D = len(s.gravity)
     model = phys.model
+    task, buf = s.task, s.buffers
     for t in range(worlds.shape[0]):
         b = worlds[t]
         if status[b] != 0:
             continue
         mb = world_model(model, b)  # (the model itself for a fixed scene)
-        dg, dp = _distances(b, x, goal, task, task.goal_axes)
-        observe(b, x, v, goal, buf.obs, table, bounds, D)
+        dg, dp = _distances(b, x, s.goal, task, task.goal_axes)
+        observe(b, x, v, s.goal, buf.obs, s.table, s.bounds, D)
         if hm is not None:  # (compiled away without sand)
             observe_sand(b, x, mb, buf.obs, hm, D)
         info = buf.info
         info[_R_OVERLAP, b] = _max_overlap(b, x, phys.grid, phys.scratch.partners[b], mb, D)
         info[_R_DISTANCE, b] = dg
         info[_R_PUSHER, b] = dp
-        _reward(b, stepping[b], dg, dp, task, buf)
+        _reward(b, s.stepping[b], dg, dp, task, buf)
 
 
 @njit(entry=True, nogil=True)
-def step_worlds(worlds, act, stepping, phys, lane_scratch, ids, g, task, table, bounds, goal, buf, hm):
+def step_worlds(worlds, ids, phys, lane_scratch, s, hm):
     """Step the worlds listed in ``worlds`` (those whose ``stepping`` flag is off were just reset:
     observe them without stepping), in one call: act, the physics on the World's runner (its
-    ``advance``), observe and reward. ``phys`` is the World's runner's bundle (its state, model and
-    buffers), ``lane_scratch`` this thread's SIMD-lanes scratch (None on the scalar path), ``ids`` a
-    per-thread list of worlds, ``g`` the World's gravity (the dimension). ``table``, ``bounds``: the
-    observation layout and its bounds; ``hm`` the sand's height map (None without sand). Returns OK
-    plus the number of worlds that blew up, or -(1 + b) for the first world b whose action is NaN
-    or inf (nothing was stepped then)."""
-    W = _act_on(worlds, act, stepping, phys.status, phys.control.throttle, ids)
+    ``advance``), observe and reward (a :class:`StepCall`, then the scene's :class:`SceneArrays`
+    and the sand's :class:`HeightMap`, None without sand). ``phys`` is the World's runner's
+    bundle (its state, model and buffers), ``lane_scratch`` this thread's SIMD-lanes scratch (None
+    on the scalar path), ``ids`` a per-thread list of worlds. Returns OK plus the number of worlds
+    that blew up, or -(1 + b) for the first world b whose action is NaN or inf (nothing was stepped
+    then)."""
+    W = _act_on(worlds, s.actions, s.stepping, phys.status, phys.control.throttle, ids)
     if W < 0:
         return W
-    bad = advance(phys, ids[:W], task.substeps, lane_scratch)  # sets status[b] (the World's)
-    _observe_worlds(worlds, stepping, phys, g, task, table, bounds, goal, buf, hm)
+    bad = advance(phys, ids[:W], s.task.substeps, lane_scratch)  # sets status[b] (the World's)
+    _observe_worlds(worlds, phys, s, hm)
     return bad
 
 
 @njit(entry=True, nogil=True)
-def act_worlds(worlds, act, stepping, status, throttle, ids):
+def act_worlds(worlds, ids, phys, s):
     """:func:`step_worlds`' first part alone (the actions as throttles, the stepping worlds listed
     in ``ids``; returns how many, or the refusal): for a scene whose physics steps through
     ``World.step``'s own kernel (the sand scenes), which then compiles once for the scene and for
     everything else that steps a World of its kind (its bed's settling)."""
-    return _act_on(worlds, act, stepping, status, throttle, ids)
+    return _act_on(worlds, s.actions, s.stepping, phys.status, phys.control.throttle, ids)
 
 
 @njit(entry=True, nogil=True)
-def observe_worlds(worlds, stepping, phys, g, task, table, bounds, goal, buf, hm):
+def observe_worlds(worlds, phys, s, hm):
     """:func:`step_worlds`' last part alone (after :func:`act_worlds` and ``World.step``)."""
-    _observe_worlds(worlds, stepping, phys, g, task, table, bounds, goal, buf, hm)
+    _observe_worlds(worlds, phys, s, hm)

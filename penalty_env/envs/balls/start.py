@@ -17,27 +17,46 @@ from .params import (
     PUSHER_GAP,
 )
 
-__all__ = ["StartScene"]
+__all__ = ["StartSampler"]
 
 
-class StartScene:
-    """The scene's start draws (its ``dim``, ``n_obstacles``, ``goal_tolerance``, ``_contact``,
-    ``_radii_list`` and, randomised, ``_push_offset`` and ``_radii_rows``)."""
+class StartSampler:
+    """Draws the PenaltyBalls starts: the horizontal positions of the pusher, the ball, the
+    obstacles and the goal, from a world's generator.
 
-    dim: int
-    n_obstacles: int
-    goal_tolerance: float
-    _contact: float
-    _radii_list: list[float]
-    _push_offset: np.ndarray
-    _radii_rows: np.ndarray
+    Args:
+        dim: 3 or 2.
+        n_obstacles: obstacles to place.
+        goal_tolerance: the success radius (obstacles stay clear of the goal's circle).
+        radii: the bodies' radii (pusher, ball, obstacles): the fixed scene's.
+        push: None, or a randomised scene's (B,) push offsets (pusher + ball radius, per world),
+            with ``radii_rows`` its (B, n) radii: world b's start uses its own.
+    """
 
-    def _sample(self, rng: np.random.Generator, b: int | None = None) -> list[float]:
+    def __init__(
+        self,
+        dim: int,
+        n_obstacles: int,
+        goal_tolerance: float,
+        radii: np.ndarray,
+        push: np.ndarray | None = None,
+        radii_rows: np.ndarray | None = None,
+    ) -> None:
+        self.dim = dim
+        self.n_obstacles = n_obstacles
+        self.goal_tolerance = goal_tolerance
+        self._radii_list = [float(r) for r in radii]
+        self._contact = float(radii[0] + radii[1])
+        self._push_offset = push
+        self._radii_rows = radii_rows
+
+    def sample(self, rng: np.random.Generator, b: int | None = None) -> list[float]:
         """One start's horizontal coordinates, flat: pusher, ball, obstacles, goal. The draws
         (documented in the env's "Starting State") come in a fixed order. Plain floats: a start is
         a handful of scalars, and numpy's per-call cost would dominate. ``b``: a randomised scene's
         world (its drawn radii); None: the fixed radii."""
-        contact = self._contact if b is None else float(self._push_offset[b])
+        randomised = b is not None and self._push_offset is not None
+        contact = float(self._push_offset[b]) if randomised else self._contact
         g0, g1 = GOAL_DISTANCE
         ball: tuple[float, ...]
         target: tuple[float, ...]
@@ -60,7 +79,7 @@ class StartScene:
             pusher = (ball[0] - side * (contact + p0 + (p1 - p0) * u[3]),)
         placed = [pusher, ball]
         if self.n_obstacles:
-            self._place_obstacles(rng, placed, target, None if b is None else self._radii_rows[b].tolist())
+            self._place_obstacles(rng, placed, target, self._radii_rows[b].tolist() if randomised else None)
         placed.append(target)
         return [c for h in placed for c in h]
 

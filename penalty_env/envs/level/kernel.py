@@ -14,7 +14,7 @@ Values are clipped to ``top``.
 
 from __future__ import annotations
 
-from .._jit import njit
+from ..._jit import njit
 
 __all__ = ["height_maps"]
 
