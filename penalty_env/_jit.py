@@ -43,8 +43,8 @@ import pickle
 import sys
 import tempfile
 import threading
-import types
 import time
+import types
 import warnings
 from typing import Any
 

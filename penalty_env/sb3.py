@@ -23,10 +23,10 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
 from . import _validate as V
+from .envs.balls.params import MAX_EPISODE_STEPS
 from .envs.checks import check_options, check_seed, render_fps
 from .envs.engine import Batch
 from .envs.faces import check_episode_steps
-from .envs.balls.params import MAX_EPISODE_STEPS
 from .envs.penalty_balls import PenaltyBallsVectorEnv
 
 __all__ = ["PenaltyBallsVecEnv", "make_vec_env"]

@@ -235,7 +235,7 @@ def _check_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any], label: str) ->
     import gymnasium as gym
 
     import penalty_env  # noqa: F401  (registers the ids)
-    from penalty_env.envs.scene import check_parameters
+    from penalty_env.envs.balls.params import check_parameters
 
     try:
         spec = gym.spec(env_id)

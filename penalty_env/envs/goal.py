@@ -19,13 +19,20 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
 from .. import _validate as V
-from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
 from .balls.params import MAX_EPISODE_STEPS
-from .penalty_balls import PenaltyBallsEnv, PenaltyBallsVectorEnv
 from .balls.scene import PenaltyBallsScene
+from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
+from .penalty_balls import PenaltyBallsEnv, PenaltyBallsVectorEnv
 from .views import pop_view_kwargs
 
-__all__ = ["PenaltyBallsGoalEnv", "PenaltyBallsGoalVectorEnv", "GoalView", "GoalReward", "REWARD_TYPES", "goal_distance"]
+__all__ = [
+    "PenaltyBallsGoalEnv",
+    "PenaltyBallsGoalVectorEnv",
+    "GoalView",
+    "GoalReward",
+    "REWARD_TYPES",
+    "goal_distance",
+]
 
 REWARD_TYPES = ("sparse", "dense")
 

@@ -13,10 +13,11 @@ from typing import Any
 from gymnasium.vector import AutoresetMode
 
 from .. import _validate as V
-from .checks import render_fps
-from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
 from .balls.params import CHOICE_PARAMETERS, MAX_EPISODE_STEPS, PARAMETERS, SAND_V1_EPISODE_STEPS
 from .balls.scene import PenaltyBallsScene
+from .checks import render_fps
+from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
+from .terrains import terrain_table
 from .views import OBS_MODES, Views, pop_view_kwargs
 
 __all__ = ["PenaltyBallsEnv", "PenaltyBallsVectorEnv", "MAX_EPISODE_STEPS", "SAND_V1_EPISODE_STEPS"]
@@ -253,11 +254,7 @@ class PenaltyBallsEnv(TaskEnv):
     `terrain=` picks the ground (every choice in 2D too, where planes are lines and the height
     field is a curve); the start distribution, goals and rewards are the same on each:
 
-    | `terrain` | Shapes | Notes |
-    |---|---|---|
-    | `"bowl"` (default) | `Bowl` of radius `bowl_radius` | v0's episodes, bit for bit |
-    | `"arena"` | a floor `Plane` and four wall planes 2 m from the centre | flat: nothing rolls back to the centre; one plane per wall gives the full force in the corners |
-    | `"bumpy"` | a `HeightField` (5 m square, 0.1 m cells) of the bowl's floor plus Gaussian bumps, the `Bowl` beyond it | bumps (40 in 3D, 12 in 2D, 0.15-0.35 m wide, 0.3-1 x `roughness` high, the field scaled so its top is the tallest bump) redrawn at every reset from the env's `np_random`, after the start's draws |
+    {terrains}
 
     A height field's phi is the vertical gap times the local normal's z component, exact on a
     tilted plane; on the bumps its error is within the curvature bound in `docs/physics.md`
@@ -402,4 +399,8 @@ class PenaltyBallsVectorEnv(TaskVectorEnv):
         return scene, Views(scene, **view_kwargs)
 
 
-PenaltyBallsEnv.__doc__ = (PenaltyBallsEnv.__doc__ or "").replace("{parameters}", _parameters_table().strip())
+PenaltyBallsEnv.__doc__ = (
+    (PenaltyBallsEnv.__doc__ or "")
+    .replace("{parameters}", _parameters_table().strip())
+    .replace("{terrains}", terrain_table().strip())
+)

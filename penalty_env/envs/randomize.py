@@ -45,7 +45,9 @@ def field_table(fields: Mapping[str, Field], indent: str = "    ") -> str:
     return "\n".join(rows)
 
 
-def check_ranges(randomize: Any, fields: Mapping[str, Field], label: str = "randomize") -> dict[str, tuple[float, float]]:
+def check_ranges(
+    randomize: Any, fields: Mapping[str, Field], label: str = "randomize"
+) -> dict[str, tuple[float, float]]:
     """``randomize`` (None or a mapping from names of ``fields`` to ``(low, high)`` pairs of finite
     numbers, low <= high, within each field's allowed range) as a dict in the fields' (draw) order;
     {} for None. Raises ValueError naming the bad entry, its value and the allowed range."""

@@ -15,7 +15,7 @@ import pytest
 
 import penalty_env  # noqa: F401
 from penalty_env.envs import PenaltyBallsVectorEnv
-from penalty_env.envs.scene import INT_PARAMETERS, PARAMETERS
+from penalty_env.envs.balls.params import INT_PARAMETERS, PARAMETERS
 from penalty_env.physics import Bowl, Sphere, World
 from penalty_env.physics.configure import configure
 

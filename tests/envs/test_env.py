@@ -279,7 +279,7 @@ def test_a_pushed_ball_slides_to_rest_as_coulomb_friction_says():
     env.reset(seed=0)
     scene = env.scene
     x = scene.world.positions[0].copy()
-    x[:] = scene._on_terrain(np.array([[-1.0, 1.0], [0.0, 0.0], [0.0, 0.0]]))[:2]  # pusher away, ball at rest
+    x[:] = scene.on_terrain(np.array([[-1.0, 1.0], [0.0, 0.0], [0.0, 0.0]]))[:2]  # pusher away, ball at rest
     v = np.zeros_like(x)
     v[1, 0] = 1.0
     scene.world.set_state(positions=x[None], velocities=v[None], worlds=[0])

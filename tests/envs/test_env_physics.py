@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from penalty_env.envs.scene import PARAMETERS, PenaltyBallsScene
+from penalty_env.envs.balls.scene import PARAMETERS, PenaltyBallsScene
 from penalty_env.physics import configure as CF
 from penalty_env.physics import theory
 from penalty_env.scenarios import pair_collision

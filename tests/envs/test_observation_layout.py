@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import penalty_env  # noqa: F401
-from penalty_env.envs.observation import DIFFERENCE, GOAL, POSITION, VELOCITY
+from penalty_env.envs.balls.layout import DIFFERENCE, GOAL, POSITION, VELOCITY
 
 
 def _reference(scene):

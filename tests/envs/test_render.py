@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import penalty_env  # noqa: F401
-from penalty_env.envs import render as R
+from penalty_env.envs.views import raster as R
 
 
 def color_near(frame, rgb, tol=60):

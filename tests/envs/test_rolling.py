@@ -90,7 +90,7 @@ def test_a_ball_pushed_sliding_in_v1_ends_rolling_at_five_sevenths_of_its_speed(
     env.reset(seed=0)
     scene = env.scene
     x = scene.world.positions[0].copy()
-    x[:] = scene._on_terrain(np.array([[-1.0, 1.0], [0.0, 0.0], [0.0, 0.0]]))[:2]
+    x[:] = scene.on_terrain(np.array([[-1.0, 1.0], [0.0, 0.0], [0.0, 0.0]]))[:2]
     v = np.zeros_like(x)
     v[1, 0] = 1.0
     scene.world.set_state(positions=x[None], velocities=v[None], angular_velocities=np.zeros((1, 2, 3)), worlds=[0])

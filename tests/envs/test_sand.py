@@ -20,8 +20,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import penalty_env  # noqa: F401
-from penalty_env.envs import scene as S
-from penalty_env.envs.render import GRAIN_COLOR
+from penalty_env.envs.balls import params as S
+from penalty_env.envs.balls.sand import grain_lattice
+from penalty_env.envs.terrains import make_terrain
+from penalty_env.envs.terrains.arena import HALF_WIDTH as ARENA_HALF_WIDTH
+from penalty_env.envs.views.raster import GRAIN_COLOR
 
 SAND = {"PenaltyBallsSand-v0": (3, 300), "PenaltyBallsSand2D-v0": (2, 40)}
 # the 2D id compiles its own kernels (about 40 s cold): kept for the slow run
@@ -123,7 +126,7 @@ def test_the_bed_is_settled_once_and_each_reset_turns_it_about_the_vertical():
     env = gym.make("PenaltyBallsSand-v0").unwrapped
     scene = env.scene
     bed = scene.bed
-    assert scene.settle_speed < S.SAND_SETTLE_SPEED and scene.settle_time >= S.SAND_SETTLE_TIME[0]
+    assert scene.sand.settle_speed < S.SAND_SETTLE_SPEED and scene.sand.settle_time >= S.SAND_SETTLE_TIME[0]
     # a second scene of the same configuration reuses the bed (no second settling)
     assert gym.make_vec("PenaltyBallsSand-v0", num_envs=2).scene.bed is bed
     # a different grain count is a different bed
@@ -189,7 +192,7 @@ def test_the_renderer_draws_the_grains():
     env.reset(seed=0)
     frame = env.render().astype(int)
     renderer = env.unwrapped._renderer
-    background = renderer.background.astype(int)
+    background = renderer._background(0).astype(int)
     scene = env.unwrapped.scene
     grains = scene.world.positions[0, scene.n_bodies :]
     px = (0.5 * renderer.width + grains[:, 0] * renderer.scale).astype(int)
@@ -231,7 +234,7 @@ def test_sand_in_the_arena_stays_within_its_walls_and_turns_by_quarter_turns():
     env = gym.make("PenaltyBallsSand-v0", terrain="arena", grains=500)
     scene = env.unwrapped.scene
     bed = scene.bed
-    assert np.abs(bed[:, :2]).max() < S.ARENA_HALF_WIDTH - 0.9 * scene.radii[-1]
+    assert np.abs(bed[:, :2]).max() < ARENA_HALF_WIDTH - 0.9 * scene.radii[-1]
     for seed in range(4):
         env.reset(seed=seed)
         grains = scene.world.positions[0, scene.n_bodies :]
@@ -242,7 +245,7 @@ def test_sand_in_the_arena_stays_within_its_walls_and_turns_by_quarter_turns():
         assert any(np.array_equal(grains[:, :2], t) for t in turned)
         for _ in range(10):
             env.step(np.ones(2, dtype=np.float32))
-        assert np.abs(scene.world.positions[0, :, :2]).max() < S.ARENA_HALF_WIDTH
+        assert np.abs(scene.world.positions[0, :, :2]).max() < ARENA_HALF_WIDTH
 
 
 @pytest.mark.slow  # each grain count settles its own bed
@@ -285,21 +288,17 @@ def test_the_start_lattice_stays_inside_the_terrain_up_to_the_largest_grain_coun
     """Where the grains start before settling: inside the bowl (or the arena's walls, above its
     floor) for every grain size, up to the most grains the arguments allow (``max_grains``, at most
     10,000), without overlap (the lattice's pitch 2.2 r, jittered by 0.1 r either way)."""
-    from types import SimpleNamespace
-
     R = 8.0
     for r in (0.02, 0.06, 0.15):
         n = min(S.max_grains(dim, r, R, terrain), 10_000)
-        stub = SimpleNamespace(dim=dim, n_grains=n, radii=np.full(n + 2, r), terrain_kind=terrain, bowl_radius=R)
-        stub.floor = S.PenaltyBallsScene.floor.__get__(stub)
-        x = S.PenaltyBallsScene.grain_lattice(stub)
+        x = grain_lattice(dim, make_terrain(terrain, dim, R, 0.0), n, r)
         assert x.shape == (n, dim)
         if terrain == "bowl":
             centre = np.zeros(dim)
             centre[-1] = R
             assert np.all(R - np.linalg.norm(x - centre, axis=-1) >= r), (r, n)
         else:
-            assert np.all(np.abs(x[:, :-1]) <= S.ARENA_HALF_WIDTH - r) and np.all(x[:, -1] >= r), (r, n)
+            assert np.all(np.abs(x[:, :-1]) <= ARENA_HALF_WIDTH - r) and np.all(x[:, -1] >= r), (r, n)
         # the jittered lattice: neighbours on a layer at least 2.2 r - 0.2 r apart
         layer = x[np.abs(x[:, -1] - x[:, -1].min()) < 0.5 * r] if terrain == "arena" else x[: min(n, 400)]
         d = np.linalg.norm(layer[:, None] - layer[None], axis=-1) + np.eye(len(layer)) * 1e9

@@ -17,9 +17,9 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import penalty_env  # noqa: F401
-from penalty_env.envs import level_kernel as LK
-from penalty_env.envs import level_scene as LS
 from penalty_env.envs import sand_level as SL
+from penalty_env.envs.level import kernel as LK
+from penalty_env.envs.level import scene as LS
 from penalty_env.envs.scripted import RasterSweep
 
 IDS = ["PenaltySandLevel2D-v0", pytest.param("PenaltySandLevel-v0", marks=pytest.mark.slow)]

@@ -1,4 +1,4 @@
-"""The env's terrains (``terrain="bowl" | "arena" | "bumpy"``): checkers, starts, determinism of the
+"""The env's terrains (``terrain="bowl" | "arena" | "bumpy" | "slope"``): checkers, starts, determinism of the
 redrawn bumps, the vector env's equality with single envs, and the renderer's pictures of them."""
 
 from __future__ import annotations
@@ -16,12 +16,12 @@ from penalty_env.envs.scripted import ScriptedPusher
 from penalty_env.physics import HeightField, Plane
 
 IDS = {"PenaltyBalls-v0": 3, "PenaltyBalls2D-v0": 2}
-TERRAINS = ("arena", "bumpy")
+TERRAINS = ("arena", "bumpy", "slope")
 
 
 # every terrain in both dimensions; the default run checks each terrain in one of them (each
 # pairing compiles its own kernels), the slow run the rest
-_SLOW_PAIRS = {("PenaltyBalls2D-v0", "arena"), ("PenaltyBalls-v0", "bumpy")}
+_SLOW_PAIRS = {("PenaltyBalls2D-v0", "arena"), ("PenaltyBalls-v0", "bumpy"), ("PenaltyBalls2D-v0", "slope")}
 
 
 @pytest.mark.parametrize(
@@ -45,10 +45,12 @@ def test_terrains_are_built_from_the_documented_shapes_and_start_bodies_at_rest_
     for terrain in TERRAINS:
         env = gym.make(env_id, terrain=terrain)
         scene = env.unwrapped.scene
-        if terrain == "arena":
-            assert all(isinstance(s, Plane) for s in scene.terrain) and len(scene.terrain) == 1 + 2 * (d - 1)
+        if terrain in ("arena", "slope"):
+            assert all(isinstance(s, Plane) for s in scene.world.terrain) and len(scene.world.terrain) == 1 + 2 * (
+                d - 1
+            )
         else:
-            assert isinstance(scene.terrain[0], HeightField)
+            assert isinstance(scene.world.terrain[0], HeightField)
         for seed in range(5):
             env.reset(seed=seed)
             w = scene.world
@@ -67,12 +69,12 @@ def test_bumps_are_redrawn_at_every_reset_from_the_seed_and_have_the_chosen_heig
         env.reset(seed=seed)
         grids.append(scene.world.shape_heights(0, world=0))
     assert np.array_equal(grids[0], grids[1]) and not np.array_equal(grids[0], grids[2])
-    bumps = grids[0] - scene._bumpy_floor
+    bumps = grids[0] - scene.terrain.bowl_floor
     assert bumps.min() >= 0.0 and 0.3 * 0.1 <= bumps.max() <= 0.1 + 1e-12
     flat = gym.make("PenaltyBalls-v0", terrain="bumpy", roughness=0.0).unwrapped.scene
     flat_env = gym.make("PenaltyBalls-v0", terrain="bumpy", roughness=0.0)
     flat_env.reset(seed=0)
-    assert np.array_equal(flat_env.unwrapped.scene.world.shape_heights(0), flat._bumpy_floor)
+    assert np.array_equal(flat_env.unwrapped.scene.world.shape_heights(0), flat.terrain.bowl_floor)
 
 
 @pytest.mark.parametrize("env_id", IDS)
@@ -110,3 +112,44 @@ def test_renderer_draws_the_terrain_and_the_bodies_on_it(env_id, terrain):
     if terrain == "bumpy":  # a new draw of bumps is drawn anew
         env.reset(seed=4)
         assert not np.array_equal(env.render(), frame)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_a_frictionless_ball_on_the_slope_slides_down_at_g_sin_theta(env_id):
+    """On the slope without friction a ball at rest accelerates down the plane at g sin(theta):
+    its velocity after t is g sin(theta) t along the plane (horizontal part g sin cos t towards -x,
+    vertical g sin^2 t down), before it meets anything."""
+    from penalty_env.envs.terrains.slope import SLOPE_DEGREES
+
+    env = gym.make(env_id, terrain="slope", friction=0.0)
+    env.reset(seed=0)
+    scene = env.unwrapped.scene
+    steps = 5
+    for _ in range(steps):
+        env.step(np.zeros(env.action_space.shape, np.float32))
+    t, a, g = steps * scene.control_period, np.radians(SLOPE_DEGREES), scene.gravity
+    v = scene.world.velocities[0, 1]
+    assert v[0] == pytest.approx(-g * np.sin(a) * np.cos(a) * t, rel=1e-4)
+    assert v[-1] == pytest.approx(-g * np.sin(a) ** 2 * t, rel=1e-3)
+
+
+@pytest.mark.parametrize("dim,fraction", [(3, 5.0 / 7.0), (2, 2.0 / 3.0)])
+def test_a_ball_rolls_down_the_slope_at_the_rolling_fraction_of_g_sin_theta(dim, fraction):
+    """With rotation (v1) and no rolling resistance, a ball on the slope (tan theta below 7/2 mu:
+    it rolls without slipping) accelerates at 5/7 g sin(theta) (sphere) or 2/3 (disk) once it
+    rolls."""
+    from penalty_env.envs.terrains.slope import SLOPE_DEGREES
+
+    env = gym.make("PenaltyBalls-v1" if dim == 3 else "PenaltyBalls2D-v1", terrain="slope", rolling_resistance=0.0)
+    env.reset(seed=0)
+    scene = env.unwrapped.scene
+    zero = np.zeros(env.action_space.shape, np.float32)
+    for _ in range(3):  # (it starts rolling)
+        env.step(zero)
+    v0 = scene.world.velocities[0, 1, 0]
+    steps = 5
+    for _ in range(steps):
+        env.step(zero)
+    accel = (scene.world.velocities[0, 1, 0] - v0) / (steps * scene.control_period)
+    a = np.radians(SLOPE_DEGREES)
+    assert accel == pytest.approx(-fraction * scene.gravity * np.sin(a) * np.cos(a), rel=0.02)

@@ -11,8 +11,8 @@ from gymnasium.utils.env_checker import check_env, data_equivalence
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 import penalty_env  # noqa: F401
-from penalty_env.envs import render as R
 from penalty_env.envs.views import OBS_MODES
+from penalty_env.envs.views import raster as R
 
 ALL = ("state", "heightmap", "rgb")
 

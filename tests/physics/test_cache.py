@@ -54,7 +54,7 @@ def test_an_edit_of_any_package_source_changes_every_kernels_cache_key(copy):
 def test_every_package_kernel_is_keyed_on_the_package_hash(copy):
     code = (
         "import penalty_env._jit as J\n"
-        "from penalty_env.envs import kernel\n"
+        "from penalty_env.envs.balls import kernel\n"
         "from penalty_env.physics import diagnostics\n"
         "for k in (kernel.step_worlds, diagnostics.world_max_penetration):\n"
         "    loc = k._cache._impl.locator\n"

@@ -10,7 +10,7 @@ import pytest
 
 import penalty_env  # noqa: F401 (registers the ids)
 from penalty_env import _results
-from penalty_env.envs import sand
+from penalty_env.envs.balls import sand
 from penalty_env.physics import configure as C
 from penalty_env.physics import error_models
 
@@ -74,13 +74,11 @@ def test_no_writable_folder_computes_every_time(monkeypatch):
 
 def test_a_settled_sand_bed_from_the_cache_is_the_settled_one_bit_for_bit(results_in, monkeypatch):
     monkeypatch.setattr(sand, "_BEDS", {})
-    env = gym.make("PenaltyBallsSand-v0", grains=50)
-    scene = env.unwrapped.scene
-    bed = sand.settled_bed(scene)
+    bed = gym.make("PenaltyBallsSand-v0", grains=50).unwrapped.scene.bed
     assert len(list(results_in.glob("sand_bed-*.pkl"))) == 1
     monkeypatch.setattr(sand, "_BEDS", {})
-    monkeypatch.setattr(sand, "_settle", lambda scene: pytest.fail("settled again"))
-    again = sand.settled_bed(scene)
+    monkeypatch.setattr(sand.SandBed, "_settle", lambda self, kwargs: pytest.fail("settled again"))
+    again = gym.make("PenaltyBallsSand-v0", grains=50).unwrapped.scene.bed
     np.testing.assert_array_equal(again, bed)
     assert again.tobytes() == bed.tobytes() and not again.flags.writeable
 

@@ -252,7 +252,11 @@ class Randomizer:
         return math.inf if clipped else cfg.dt * math.sqrt(cfg.ks / theory.effective_mass(masses[0], masses[1]))
 
     def _zeta(self, e: float) -> float:
-        return float(python_twin(zeta_of)(e, self._grid, self._zetas)) if "restitution" in self.ranges else self.config.zeta
+        return (
+            float(python_twin(zeta_of)(e, self._grid, self._zetas))
+            if "restitution" in self.ranges
+            else self.config.zeta
+        )
 
     def _bodies(self, d: Draws, t: int) -> tuple[np.ndarray, np.ndarray]:
         """World t's masses and radii (pusher, ball, obstacles) from its draws."""
@@ -388,7 +392,9 @@ def derive_worlds(idx, d, rule, grid, zetas, w, rows):
             rows.rest[b, i] = w.radii[b, i] - masses[i] * g / kt
         rows.rest[b, nb] = rows.rest[b, 1]
         if rule.rolling:
-            kf, kr = rolling_defaults(w.inv_mass[b], w.radii[b], rule.inertia_factor, rule.dt, w.inv_inertia[b], rows.scratch)
+            kf, kr = rolling_defaults(
+                w.inv_mass[b], w.radii[b], rule.inertia_factor, rule.dt, w.inv_inertia[b], rows.scratch
+            )
             w.kf[b] = kf
             w.kr[b] = kr
         else:  # v0's kf: the lightest pair's sliding stops in one substep

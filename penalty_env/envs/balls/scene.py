@@ -84,7 +84,9 @@ class PenaltyBallsScene:
         self.n_grains = n_grains = p["grains"]
         self.n_balls = nb + n_grains
         self.radii = np.array(
-            [p["pusher_radius"], p["ball_radius"]] + [p["obstacle_radius"]] * self.n_obstacles + [p["grain_radius"]] * n_grains
+            [p["pusher_radius"], p["ball_radius"]]
+            + [p["obstacle_radius"]] * self.n_obstacles
+            + [p["grain_radius"]] * n_grains
         )
         self.masses = np.array(
             [p["pusher_mass"], p["ball_mass"]] + [p["obstacle_mass"]] * self.n_obstacles + [p["grain_mass"]] * n_grains
@@ -124,7 +126,9 @@ class PenaltyBallsScene:
             self.randomizer.attach(self.world, self.dt, self.rest_radii)
             rows = self.randomizer.rows
             assert rows is not None
-            self.start = StartSampler(d, self.n_obstacles, self.goal_tolerance, self.radii, rows.push, self.world.model.radii)
+            self.start = StartSampler(
+                d, self.n_obstacles, self.goal_tolerance, self.radii, rows.push, self.world.model.radii
+            )
         else:
             self.start = StartSampler(d, self.n_obstacles, self.goal_tolerance, self.radii)
         self._spaces()
@@ -355,7 +359,9 @@ class PenaltyBallsScene:
         with compile_notice(f"{self.dim}D {self.world.runner.path} environment step"):
             if not self.n_grains:
                 return runner_module.entry_point(KE.step_worlds, call + (self.scene_arrays, self.heightmap))
-            act_kernel = runner_module.entry_point(KE.act_worlds, (call.worlds, call.ids, call.physics, self.scene_arrays))
+            act_kernel = runner_module.entry_point(
+                KE.act_worlds, (call.worlds, call.ids, call.physics, self.scene_arrays)
+            )
             observe_kernel = runner_module.entry_point(
                 KE.observe_worlds, (call.worlds, call.physics, self.scene_arrays, self.heightmap)
             )
@@ -421,7 +427,11 @@ class PenaltyBallsScene:
             flat = np.array([self.start.sample(rng) for rng in gens])
         flat = flat.reshape(idx.size, self.n_bodies + 1, -1)
         if self.terrain.per_world:  # a new terrain for each world (after the start's draws)
-            rough = self.randomizer.rows.roughness[idx] if self.randomizer is not None else [self.terrain.roughness] * idx.size  # type: ignore[union-attr]
+            rough = (
+                self.randomizer.rows.roughness[idx]
+                if self.randomizer is not None
+                else [self.terrain.roughness] * idx.size
+            )  # type: ignore[union-attr]
             self.world.set_heights(0, self.terrain.draw(gens, np.asarray(rough)), worlds=idx)
             self.terrain_version[idx] += 1
         pos = self.on_terrain(flat, idx)

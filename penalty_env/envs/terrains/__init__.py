@@ -13,7 +13,17 @@ from .bowl import BowlTerrain
 from .bumpy import BumpyTerrain
 from .slope import SlopeTerrain
 
-__all__ = ["TERRAINS", "Terrain", "TerrainHeights", "terrain_height", "make_terrain", "terrain_table", "BOWL", "PLANE", "BUMPY"]
+__all__ = [
+    "TERRAINS",
+    "Terrain",
+    "TerrainHeights",
+    "terrain_height",
+    "make_terrain",
+    "terrain_table",
+    "BOWL",
+    "PLANE",
+    "BUMPY",
+]
 
 # name -> class, in the order the docs list them (the first is the default)
 TERRAINS: dict[str, type[Terrain]] = {

@@ -62,7 +62,9 @@ class BumpyTerrain(Terrain):
         sigma = WIDTH[0] + (WIDTH[1] - WIDTH[0]) * u[:, d - 1]
         height = roughness * (0.3 + 0.7 * u[:, d])
         ax = self.axis
-        g = [np.exp(-0.5 * ((ax[None, :] - centre[:, k, None]) / sigma[:, None]) ** 2) * self.taper for k in range(d - 1)]
+        g = [
+            np.exp(-0.5 * ((ax[None, :] - centre[:, k, None]) / sigma[:, None]) ** 2) * self.taper for k in range(d - 1)
+        ]
         bumps = height @ g[0] if d == 2 else np.einsum("k,ki,kj->ij", height, g[0], g[1])
         top = float(bumps.max())
         if top > 0.0:  # overlapping bumps add up: scale the field back to the tallest bump's height
