@@ -49,13 +49,24 @@ import warnings
 from typing import Any
 
 import numba
+import numpy as np
 from numba.core import caching
 from numba.core import codegen as _codegen
 from numba.core import config as _numba_config
 from numba.core import event as _numba_event
 from numba.extending import overload as _overload
 
-__all__ = ["njit", "overload_kernel", "prange", "entry_point", "source_hash", "PackageCacheLocator", "compile_notice"]
+__all__ = [
+    "njit",
+    "overload_kernel",
+    "prange",
+    "entry_point",
+    "source_hash",
+    "PackageCacheLocator",
+    "compile_notice",
+    "readonly_paths",
+    "restore_readonly",
+]
 
 prange = numba.prange
 
@@ -480,3 +491,57 @@ def entry_point(fn: Any, args: tuple) -> Any:
     Only for calls whose argument types are fixed by construction: the entry point does not check
     them again."""
     return fn.compile(tuple(fn.typeof_pyval(a) for a in args))
+
+
+# ---------------------------------------------------------------- read-only arrays across pickling
+# A read-only array is another Numba type than a writable one (``readonly array(float64, ...)``),
+# and pickling does not keep numpy's writeable flag: an unpickled object whose kernels were
+# compiled for its read-only arrays (a settled bed, the radii, a shape's rotation) would compile
+# them anew on its first step (seconds) and run with writable copies. ``readonly_paths`` notes
+# where the read-only arrays sit under an object (through its attributes, tuples, lists and dicts,
+# and the attributes of the package's own objects) before pickling; ``restore_readonly`` sets the
+# flag again at those places after.
+
+
+def readonly_paths(root: Any) -> list[tuple]:
+    """The paths (``("a", name)`` attribute, ``("i", index)`` item steps) from ``root`` to every
+    read-only numpy array under it."""
+    out: list[tuple] = []
+    seen: set[int] = set()
+
+    def walk(value: Any, path: tuple) -> None:
+        if isinstance(value, np.ndarray):
+            if not value.flags.writeable:
+                out.append(path)
+            return
+        if id(value) in seen:
+            return
+        if isinstance(value, (tuple, list)):
+            seen.add(id(value))
+            for i, item in enumerate(value):
+                walk(item, path + (("i", i),))
+        elif isinstance(value, dict):
+            seen.add(id(value))
+            for key, item in value.items():
+                walk(item, path + (("i", key),))
+        elif type(value).__module__.startswith("penalty_env") and hasattr(value, "__dict__"):
+            seen.add(id(value))
+            for name, item in vars(value).items():
+                walk(item, path + (("a", name),))
+
+    walk(root, ())
+    return out
+
+
+def restore_readonly(root: Any, paths: list[tuple]) -> None:
+    """Mark the arrays at ``paths`` (from :func:`readonly_paths`) under ``root`` read-only; a path
+    no longer there (state an object drops when pickled) is skipped."""
+    for path in paths:
+        value = root
+        try:
+            for kind, key in path:
+                value = getattr(value, key) if kind == "a" else value[key]
+        except (AttributeError, KeyError, IndexError, TypeError):
+            continue
+        if isinstance(value, np.ndarray):
+            value.flags.writeable = False

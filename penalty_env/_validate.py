@@ -64,11 +64,20 @@ def real_array(
     return arr
 
 
+def _float(value: Any) -> float:
+    """``float(value)``, with an int too large for a float (``10**400``) as inf (refused as such by
+    the caller, naming the argument) instead of a bare OverflowError."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
 def real(name: str, value: Any, allowed: str = "a finite real number") -> float:
     """``value`` as a finite float (bools refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
         raise ArgumentTypeError(f"{name} must be {allowed}, got {describe(value)} ({type(value).__name__})")
-    v = float(value)
+    v = _float(value)
     if not math.isfinite(v):
         raise ValueError(f"{name} must be {allowed}, got {describe(value)}")
     return v
@@ -96,7 +105,7 @@ def in_range(name: str, value: Any, lo: float, hi: float, meaning: str = "") -> 
     allowed = f"a number in [{lo}, {hi}]"
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
         raise ArgumentTypeError(f"{what} must be {allowed}, got {describe(value)} ({type(value).__name__})")
-    v = float(value)
+    v = _float(value)
     if not (math.isfinite(v) and lo <= v <= hi):
         raise ValueError(f"{what} must be {allowed}, got {describe(value)}")
     return v

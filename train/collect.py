@@ -14,7 +14,9 @@ The env's spec (id, keyword arguments, episode length) is stored too, so
 ``minari.load_dataset(dataset_id).recover_environment()`` makes the env again; its entry point
 is an import path, so that works without importing ``penalty_env`` first.
 
-The default policy is :class:`penalty_env.envs.scripted.ScriptedPusher`. ``--policy RUN`` loads
+The default policy is the task's scripted one (:func:`penalty_env.envs.scripted.scripted_policy`:
+the pusher for a PenaltyBalls id, the raster sweep for a PenaltySandLevel id; an env observing
+something else than the state vector is refused, naming its id). ``--policy RUN`` loads
 a run folder of ``train_ppo.py`` (``model.zip``, and ``vecnormalize.pkl`` when the run has one)
 as ``evaluate.py`` does, and plays its deterministic actions; the env id and keyword arguments
 then default to the run's own (``summary.json``). The dataset id defaults to
@@ -45,10 +47,11 @@ Policy = Callable[[np.ndarray], np.ndarray]
 
 
 def scripted_policy(env) -> Policy:
-    """The scripted pusher of ``env`` (its dimension and contact distance)."""
-    from penalty_env.envs.scripted import ScriptedPusher
+    """The scripted policy of ``env``'s task (the pusher, or the level task's raster sweep); an env
+    it cannot play (a dict or image observation) is refused, naming the id."""
+    from penalty_env.envs.scripted import scripted_policy as of_task
 
-    return ScriptedPusher.for_env(env)
+    return of_task(env)
 
 
 def trained_policy(run: Path) -> tuple[Policy, dict[str, Any], tuple[int, ...]]:
@@ -124,7 +127,7 @@ def collect(
         env_kwargs = summary.get("env_kwargs", {}) if env_kwargs is None else env_kwargs
         name, algorithm = "ppo", "PPO (stable-baselines3), deterministic"
     else:
-        policy, name, algorithm = None, "scripted", "ScriptedPusher (penalty_env.envs.scripted)"
+        policy, name, algorithm = None, "scripted", ""
     env_id = env_id or "PenaltyBalls-v0"
     env = minari.DataCollector(gym.make(env_id, **(env_kwargs or {})), record_infos=record_infos)
     if policy is not None and env.observation_space.shape != obs_shape:
@@ -134,6 +137,7 @@ def collect(
         )
     if policy is None:
         policy = scripted_policy(env)
+        algorithm = f"{type(policy).__name__} (penalty_env.envs.scripted)"
     dataset_id = dataset_id or f"penalty_env/{env_id}/{name}-v0"
 
     for k in range(episodes):

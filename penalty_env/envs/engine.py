@@ -27,13 +27,14 @@ wrapper truncates), :class:`penalty_env.sb3.PenaltyBallsVecEnv` SB3's ``VecEnv``
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode
 
+from .._jit import readonly_paths, restore_readonly
 from .checks import coerce_action
 
 __all__ = ["Task", "View", "Batch"]
@@ -43,22 +44,70 @@ class Task(Protocol):
     """B worlds of one task: what :class:`Batch` steps. Every array has a leading world axis and
     is allocated once; the Batch reads them after each call (no copies are made by the task)."""
 
-    n_worlds: int
-    dim: int
-    control_period: float
-    action_space: spaces.Box  # one world's
-    observation_space: spaces.Box  # one world's state vector
-    actions: np.ndarray  # (B, actions) float64: the Batch writes each step's actions here
-    obs: np.ndarray  # (B, size) float32: every world's state vector after the last step or reset
-    reward: np.ndarray  # (B,) float64: the last step's reward (0 for a world just reset)
-    success: np.ndarray  # (B,) bool: the task is done (the episode terminates)
-    stepping: np.ndarray  # (B,) bool: off for a world just reset, which the next step observes only
-    info_keys: tuple[str, ...]  # the info dict's keys before "is_success", in order
-    info_values: np.ndarray  # (len(info_keys), B) float64: their values, rows in that order
-    int_info: tuple[str, ...]  # those of info_keys reported as integers
-    nested_infos: dict[str, tuple[tuple[str, ...], np.ndarray]]  # key -> (names, (B, names) values)
-    reset_options: tuple[str, ...]  # the reset options the task takes (besides reset_mask)
-    owner: str  # the env named in a refusal of reset options
+    # read-only members (properties), so a task may hold any of them as an attribute or a property
+    @property
+    def n_worlds(self) -> int: ...
+
+    @property
+    def dim(self) -> int: ...
+
+    @property
+    def control_period(self) -> float: ...
+
+    @property
+    def action_space(self) -> spaces.Box:
+        """One world's."""
+
+    @property
+    def observation_space(self) -> spaces.Box:
+        """One world's state vector."""
+
+    @property
+    def actions(self) -> np.ndarray:
+        """(B, actions) float64: the Batch writes each step's actions here."""
+
+    @property
+    def obs(self) -> np.ndarray:
+        """(B, size) float32: every world's state vector after the last step or reset."""
+
+    @property
+    def reward(self) -> np.ndarray:
+        """(B,) float64: the last step's reward (0 for a world just reset)."""
+
+    @property
+    def success(self) -> np.ndarray:
+        """(B,) bool: the task is done (the episode terminates)."""
+
+    @property
+    def stepping(self) -> np.ndarray:
+        """(B,) bool: off for a world just reset, which the next step observes only."""
+
+    @property
+    def info_keys(self) -> tuple[str, ...]:
+        """The info dict's keys before "is_success", in order"""
+
+    @property
+    def info_values(self) -> np.ndarray:
+        """(len(info_keys), B) float64: their values, rows in that order."""
+
+    @property
+    def int_info(self) -> tuple[str, ...]:
+        """Those of info_keys reported as integers."""
+
+    @property
+    def nested_infos(self) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:
+        """Key -> (names, (B, names) values)."""
+
+    @property
+    def reset_options(self) -> tuple[str, ...]:
+        """The reset options the task takes (besides reset_mask)."""
+
+    @property
+    def owner(self) -> str:
+        """The env named in a refusal of reset options."""
+
+    def renderer(self) -> Any:
+        """A new renderer of the worlds (what draws render_mode's frames)."""
 
     def first_bad_action(self, skip: np.ndarray) -> int:
         """The first world not ``skip``-ped whose action holds NaN or inf, or -1."""
@@ -77,8 +126,13 @@ class Task(Protocol):
 class View(Protocol):
     """How a Batch observes its worlds (:class:`.views.Views`, :class:`.goal.GoalView`)."""
 
-    space: spaces.Space  # one world's observation space
-    is_state: bool  # the task's own state vector, as it is (the Batch's fast path)
+    @property
+    def space(self) -> spaces.Space:
+        """One world's observation space."""
+
+    @property
+    def is_state(self) -> bool:
+        """The task's own state vector, as it is (the Batch's fast path)."""
 
     def observe(self, worlds: np.ndarray | None = None) -> Any: ...
 
@@ -123,6 +177,22 @@ class Batch:
         self._one_shape = task.action_space.shape
 
     # ------------------------------------------------------------------ seeding and resets
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_readonly"] = readonly_paths(self)  # pickling drops numpy's writeable flag
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        """After unpickling: the task's read-only arrays read-only again, so its kernels find the
+        types they were compiled for (not a new compile of seconds on the first step)."""
+        paths = state.pop("_readonly", [])
+        self.__dict__.update(state)
+        restore_readonly(self, paths)
+
+    def _gens(self, worlds: np.ndarray) -> list[np.random.Generator]:
+        """The generators of ``worlds`` (each seeded by its first reset)."""
+        return cast("list[np.random.Generator]", [self.rngs[i] for i in worlds])
+
     def seed(self, seeds: Sequence[int | None], worlds: np.ndarray) -> None:
         """Give each world of ``worlds`` a generator seeded ``seeds[i]`` (its index in the batch),
         or fresh entropy where the seed is None and the world has none yet."""
@@ -133,7 +203,7 @@ class Batch:
     def reset(self, worlds: np.ndarray, options: Any = None, first_steps: np.ndarray | None = None) -> None:
         """New episodes in ``worlds`` from their generators (``options``: the task's reset options;
         ``first_steps``: the step count each starts at, 0 by default)."""
-        self.task.reset_worlds(worlds, [self.rngs[i] for i in worlds], options=options)
+        self.task.reset_worlds(worlds, self._gens(worlds), options=options)
         self.steps[worlds] = 0 if first_steps is None else first_steps[worlds]
         self.done[worlds] = False
 
@@ -157,7 +227,7 @@ class Batch:
         reset = None
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self.done.any():
             reset = np.flatnonzero(self.done)
-            task.reset_worlds(reset, [self.rngs[i] for i in reset], observe=False)  # stepped as "just reset"
+            task.reset_worlds(reset, self._gens(reset), observe=False)  # stepped as "just reset"
             task.step()
             task.stepping[reset] = True
             self.steps[reset] = -1  # += 1 below

@@ -19,7 +19,7 @@ from gymnasium.vector import AutoresetMode
 from .. import _validate as V
 from .faces import TaskEnv, TaskVectorEnv, check_autoreset_mode, check_episode_steps, check_render_mode
 from .level.scene import LEVEL_EPISODE_STEPS, LEVEL_PARAMETERS, SandLevelScene
-from .views import StateView
+from .views import Views, pop_view_kwargs
 
 
 # ----------------------------------------------------------------------------------------------
@@ -80,6 +80,14 @@ class PenaltySandLevelEnv(TaskEnv):
     holds a bed only 0.09 m deep (less than a grain) once spread over the arena, so a level bed
     reads 0 or a grain's height cell by cell (docs/level.md).
 
+    ### Observation modes
+
+    `obs_mode=` takes the PenaltyBalls envs' values and keywords (`"state"`, the default: the Box
+    above; `"heightmap"`: the grains' and floor's surface height on a square grid centred on the
+    blade, `heightmap_cells` x `heightmap_cells` cells of `heightmap_cell` m in 3D, a profile in
+    2D; `"rgb"`: a picture of the grains from above, `rgb_size` pixels square; a tuple of them: a
+    `Dict`). They are the same views, drawn by the same kernels, as PenaltyBalls' (one raster).
+
     ## Rewards
 
     `error` is the RMS over the cells of (height map - target), in metres. The reward is
@@ -123,6 +131,21 @@ class PenaltySandLevelEnv(TaskEnv):
 
     `grains` is refused beyond a flat level of 0.4 m.
 
+    ## Domain randomisation
+
+    `randomize={name: (low, high)}` (default None: the fixed scene, bit for bit) draws each world's
+    physics at every reset, one uniform per name in this order, from the world's own generator
+    before the heap's turn and the blade's side: `friction` (Coulomb mu of every contact, within
+    [0, 1.5]), `grain_mass` (every grain's mass, kg, within [0.05, 2]) and `blade_speed` (within
+    its argument's range). The springs and the substep are fixed at make and cover every draw: the
+    stiffness and damping are derived for the heaviest grains and the fastest blade of the ranges
+    (so lighter grains rebound less than restitution 0.3), the substep for the lightest grains'
+    stability limit. The heap starts from the same settled bed for every draw (heavier or lighter
+    grains sink or rise by their resting overlap, < 1% of a radius, in the first steps). The
+    observation's velocity bounds are the fastest blade's. `reset(options={"randomize": {...}})`
+    narrows ranges for one reset; `info["randomization"]` holds the drawn values. An unknown name
+    or a range outside its allowed one raises `ValueError` naming it.
+
     ## Physics
 
     By `penalty_env.physics.configure`, as in the PenaltyBalls scene: a grain-grain impact at twice
@@ -147,8 +170,8 @@ class PenaltySandLevelEnv(TaskEnv):
 
     def __init__(self, dim: int = 3, render_mode: str | None = None, **kwargs: Any) -> None:
         check_render_mode(render_mode, self.metadata["render_modes"])
-        scene = SandLevelScene(1, dim=dim, **kwargs)
-        self._attach(scene, StateView(scene), render_mode)
+        scene, view = PenaltySandLevelVectorEnv.parts(1, dim, "PenaltySandLevelEnv.__init__", **kwargs)
+        self._attach(scene, view, render_mode)
 
 
 def _parameters_table() -> str:
@@ -190,8 +213,9 @@ class PenaltySandLevelVectorEnv(TaskVectorEnv):
         self._attach(scene, view, steps, render_mode, mode)
 
     @staticmethod
-    def parts(n_worlds: int, dim: int, owner: str, **kwargs: Any) -> tuple[SandLevelScene, StateView]:
-        """The scene of ``n_worlds`` worlds and its view, from the env's keyword arguments (the SB3
-        ``VecEnv`` builds its worlds with this too)."""
+    def parts(n_worlds: int, dim: int, owner: str, **kwargs: Any) -> tuple[SandLevelScene, Views]:
+        """The scene of ``n_worlds`` worlds and its view (``obs_mode`` and its keywords), from the
+        env's keyword arguments (the SB3 ``VecEnv`` builds its worlds with this too)."""
+        view_kwargs = pop_view_kwargs(kwargs)
         scene = SandLevelScene(V.integer("num_envs", n_worlds, 1), dim=dim, owner=owner, **kwargs)
-        return scene, StateView(scene)
+        return scene, Views(scene, **view_kwargs)

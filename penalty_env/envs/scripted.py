@@ -8,11 +8,13 @@ the observation, so it works with any PenaltyBalls env (single or batched observ
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .balls.layout import ObservationLayout
 
-__all__ = ["ScriptedPusher", "RasterSweep"]
+__all__ = ["ScriptedPusher", "RasterSweep", "scripted_policy"]
 
 
 class ScriptedPusher:
@@ -34,7 +36,7 @@ class ScriptedPusher:
         )
 
     @classmethod
-    def for_env(cls, env) -> ScriptedPusher:
+    def for_env(cls, env: Any) -> ScriptedPusher:
         scene = env.unwrapped.scene
         return cls(scene.dim, float(scene.radii[0] + scene.radii[1]))
 
@@ -84,7 +86,7 @@ class RasterSweep:
         lanes: lanes across y in 3D (ignored in 2D).
     """
 
-    def __init__(self, env, lanes: int = 4) -> None:
+    def __init__(self, env: Any, lanes: int = 4) -> None:
         scene = env.unwrapped.scene if hasattr(env, "unwrapped") else env.scene
         self.dim = scene.dim
         self.range = np.asarray(scene.blade_range, dtype=np.float64)
@@ -132,3 +134,29 @@ class RasterSweep:
             k = (k + 1) % len(plan)
         self._next[row] = k
         return np.clip((plan[k] - pos) / self.step_length, -1.0, 1.0).astype(np.float32)
+
+
+def scripted_policy(env: Any) -> Any:
+    """The scripted policy of ``env``'s task, ``policy(obs) -> action``: :class:`RasterSweep` for a
+    PenaltySandLevel env, :class:`ScriptedPusher` for a PenaltyBalls one. Both read the task's
+    state vector, so an env observing anything else (a goal env's dict, ``obs_mode="rgb"`` or
+    ``"heightmap"``) is refused with a ValueError naming its id, as is an env of another task."""
+    from gymnasium import spaces
+
+    from .balls.scene import PenaltyBallsScene
+    from .level.scene import SandLevelScene
+
+    u = env.unwrapped
+    name = env.spec.id if getattr(env, "spec", None) is not None else type(u).__name__
+    scene = getattr(u, "scene", None)
+    batch = getattr(u, "batch", None)
+    if not isinstance(scene, (PenaltyBallsScene, SandLevelScene)):
+        raise ValueError(f"{name} has no scripted policy (there is one for the PenaltyBalls and PenaltySandLevel ids)")
+    if batch is None or not batch.view.is_state or not isinstance(env.observation_space, spaces.Box):
+        raise ValueError(
+            f"{name}: the scripted policies read the task's state vector, but this env observes "
+            f"{env.observation_space}; make it with obs_mode='state' (not a goal id), or record a trained policy"
+        )
+    if isinstance(scene, SandLevelScene):
+        return RasterSweep(env)
+    return ScriptedPusher.for_env(env)

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
+from .._jit import readonly_paths, restore_readonly
 from . import diagnostics as _diagnostics
 from .broadphase.grid import GRID_MIN_BALLS, new_grid, no_grid
 from .geometry.pack import pack_table, user_addresses
@@ -125,7 +126,7 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
             and :meth:`set_parameters` changes them for some worlds. The kernels read them through
             :mod:`penalty_env.physics.per_world` (compiled once for a per-world scene, and not at all
             for a fixed one, which runs exactly the code it ran before). Scalar and lanes stepping,
-            without ``events`` and without ``tangential="history"``.
+            without ``events`` (the history model's spring kt and dashpot kd_t stay one per scene).
         events: event-located stepping (:mod:`penalty_env.physics.stepping.events`): each step
             stops at every contact switch (a contact beginning or ending) and crosses it, which
             restores the integrator's order (RK4: 4th order instead of 1st with damping) at the
@@ -223,11 +224,8 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
                 f"tangential='history' advances each contact's spring once per step, which needs an integrator "
                 f"with one force pass per step: symplectic_euler or explicit_euler (got {self.integrator!r})"
             )
-        if self.per_world and (self.events or self.tangential == "history"):
-            raise ValueError(
-                "per_world=True does not support events=True or tangential='history' yet: use events=False "
-                "and tangential='coulomb'"
-            )
+        if self.per_world and self.events:
+            raise ValueError("per_world=True does not support events=True yet: use events=False")
         if self.integrator == "implicit_euler" and self.damping == "no_tension":
             # its frozen-contact Jacobian cannot see the clip: the solve would pull separating
             # balls together, which is what no_tension exists to prevent
@@ -391,9 +389,17 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
             spin=self._spin,
         )
 
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_readonly"] = readonly_paths(self)  # pickling drops numpy's writeable flag
+        return state
+
     def __setstate__(self, state: dict) -> None:
-        """After unpickling: the user SDFs' compiled callbacks have new addresses."""
+        """After unpickling: the read-only arrays read-only again (else every kernel compiles anew
+        for writable ones); the user SDFs' compiled callbacks have new addresses."""
+        paths = state.pop("_readonly", [])
         self.__dict__.update(state)
+        restore_readonly(self, paths)
         if any(isinstance(s, SDF) for s in self.terrain):
             self._model.shapes.user[:] = user_addresses(self.terrain)
 

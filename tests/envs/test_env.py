@@ -19,6 +19,7 @@ from gymnasium.error import ResetNeeded
 import penalty_env  # noqa: F401  (registers the ids)
 from penalty_env.envs import PARAMETERS, PenaltyBallsEnv
 from penalty_env.envs.scripted import ScriptedPusher
+from penalty_env.physics.guard import EnergyDriftWarning
 
 IDS = ("PenaltyBalls-v0", "PenaltyBalls2D-v0")
 DIM = {"PenaltyBalls-v0": 3, "PenaltyBalls2D-v0": 2}
@@ -262,9 +263,10 @@ def test_a_head_on_impact_at_top_speed_overlaps_by_the_penetration_tolerance():
         # says the peak overlap is v / omega0, which configure sets to tol x r less the margin it
         # keeps for the integrator's predicted overshoot of the peak (the motor's residual push
         # and the terrain add a little)
-        env = PenaltyBallsEnv(
-            penetration_tolerance=tol, friction=0.0, max_force=0.5, restitution=1.0, control_period=0.005
-        )
+        with pytest.warns(EnergyDriftWarning):  # undamped (e = 1): collisions would gain energy
+            env = PenaltyBallsEnv(
+                penetration_tolerance=tol, friction=0.0, max_force=0.5, restitution=1.0, control_period=0.005
+            )
         env.reset(seed=0)
         worst = _head_on(env.scene, env.scene.params["max_speed"])
         margin = env.scene.config.predicted_error["peak_overlap"]

@@ -89,7 +89,8 @@ def test_draws_set_the_worlds_physics_as_the_fixed_scene_derives_it():
     terrain's, kf, masses, radii, the motor), and a world's values follow its draw."""
     point = {"ball_mass": 0.8, "pusher_radius": 0.12, "friction": 0.5, "restitution": 0.45, "max_force": 25.0}
     fixed = PenaltyBallsScene(1, **point)
-    rand = PenaltyBallsScene(2, randomize={k: (v, v) for k, v in point.items()})
+    with pytest.warns(RandomizationWarning):  # (the point's step is shorter than the defaults')
+        rand = PenaltyBallsScene(2, randomize={k: (v, v) for k, v in point.items()})
     assert rand.dt == fixed.dt and rand.substeps == fixed.substeps
     rand.reset_worlds([0, 1], [np.random.default_rng(1), np.random.default_rng(2)])
     p = rand.world.parameters(1)
@@ -115,7 +116,8 @@ def test_the_reset_kernel_and_its_python_twin_derive_the_same_bits(physics):
     from penalty_env.envs.balls.randomize import derive_worlds
 
     ranges = dict(RANGES, pusher_mass=(0.5, 3.0), obstacle_radius=(0.1, 0.2), stiffness=(0.5, 1.5))
-    a = PenaltyBallsScene(6, randomize=ranges, physics=physics, n_obstacles=2)
+    with pytest.warns(RandomizationWarning):  # (these ranges need more substeps)
+        a = PenaltyBallsScene(6, randomize=ranges, physics=physics, n_obstacles=2)
     idx = np.arange(6)
     a.reset_worlds(idx, [np.random.default_rng(s) for s in range(6)], observe=False)  # the kernel
     r = a.randomizer
@@ -270,7 +272,8 @@ def test_pickled_randomised_env_continues_bit_for_bit():
 def test_no_compile_per_reset():
     """After the first reset and step, many resets (each drawing new masses, radii, stiffness) and
     steps compile nothing."""
-    vec = PenaltyBallsVectorEnv(16, randomize=dict(RANGES, stiffness=(0.5, 1.0), ball_radius=(0.1, 0.2)))
+    with pytest.warns(RandomizationWarning):  # (these ranges need more substeps)
+        vec = PenaltyBallsVectorEnv(16, randomize=dict(RANGES, stiffness=(0.5, 1.0), ball_radius=(0.1, 0.2)))
     vec.reset(seed=0)
     vec.step(np.zeros((16, 2)))
     with numba_event.install_recorder("numba:compile") as rec:

@@ -274,3 +274,58 @@ def test_bad_input_is_refused():
         env.step(np.array([np.nan], dtype=np.float32))
     with pytest.raises(ValueError, match="shape"):
         env.step(np.zeros(2, dtype=np.float32))
+
+
+# ------------------------------------------------------------------ domain randomisation
+LEVEL_RANGES = {"friction": (0.3, 0.8), "grain_mass": (0.3, 1.0), "blade_speed": (0.3, 0.6)}
+
+
+def test_randomised_level_draws_within_ranges_and_sets_the_worlds_physics():
+    vec = gym.make_vec(
+        "PenaltySandLevel2D-v0", num_envs=3, vectorization_mode="vector_entry_point", randomize=LEVEL_RANGES
+    )
+    _, info = vec.reset(seed=4)
+    drawn = info["randomization"]
+    scene = vec.unwrapped.scene
+    for name, (lo, hi) in LEVEL_RANGES.items():
+        assert np.all((drawn[name] >= lo) & (drawn[name] <= hi)), name
+    np.testing.assert_array_equal(scene.blade_speeds, drawn["blade_speed"])
+    # the World holds each world's drawn mass for every grain, and its friction
+    for b in range(3):
+        params = scene.world.parameters(b)
+        np.testing.assert_allclose(params["masses"], drawn["grain_mass"][b], rtol=1e-15)  # (1 / (1 / m))
+        assert params["mu"] == drawn["friction"][b]
+    # a blade at full throttle towards the centre (it starts at an end) moves its drawn top speed
+    # per control period
+    before = scene.blade[:, 0].copy()
+    vec.step(-np.sign(before)[:, None].astype(np.float32))
+    moved = np.abs(scene.blade[:, 0] - before)
+    np.testing.assert_allclose(moved, drawn["blade_speed"] * scene.control_period, rtol=1e-12)
+
+
+def test_randomised_level_single_and_vector_envs_agree_bit_for_bit():
+    single = gym.make("PenaltySandLevel2D-v0", randomize=LEVEL_RANGES)
+    vec = gym.make_vec(
+        "PenaltySandLevel2D-v0", num_envs=2, vectorization_mode="vector_entry_point", randomize=LEVEL_RANGES
+    )
+    vobs, vinfo = vec.reset(seed=7)
+    obs, info = single.reset(seed=8)  # world 1 of the vector env is seeded 7 + 1
+    np.testing.assert_array_equal(obs, vobs[1])
+    assert info["randomization"]["friction"] == vinfo["randomization"]["friction"][1]
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        a = rng.uniform(-1, 1, (2, 1)).astype(np.float32)
+        vobs, vr, *_ = vec.step(a)
+        obs, r, *_ = single.step(a[1])
+        np.testing.assert_array_equal(obs, vobs[1])
+        assert r == vr[1]
+
+
+def test_level_randomize_refuses_unknown_names_and_out_of_range_pairs():
+    with pytest.raises(ValueError, match="stiffness"):
+        gym.make("PenaltySandLevel2D-v0", randomize={"stiffness": (1, 2)})
+    with pytest.raises(ValueError, match="grain_mass"):
+        gym.make("PenaltySandLevel2D-v0", randomize={"grain_mass": (0.01, 1.0)})
+    env = gym.make("PenaltySandLevel2D-v0", randomize={"friction": (0.3, 0.5)})
+    with pytest.raises(ValueError, match="friction"):
+        env.reset(seed=0, options={"randomize": {"friction": (0.1, 0.5)}})

@@ -27,7 +27,8 @@ def test_large_world_parallel_force_loop_matches_the_serial_all_pairs_world():
     x = np.array([[a, b, c] for a in g for b in g for c in g]) - [1.47, 1.47, -0.11]
     x = x + rng.normal(0, 0.005, x.shape)
     n = x.shape[0]
-    kw = dict(ks=1e4, kd=2 * 0.2 * math.sqrt(1e4 * 0.5), dt=0.2 / math.sqrt(2e4))
+    # (a lattice packed into the bowl: the corners start inside its wall, on purpose)
+    kw = dict(ks=1e4, kd=2 * 0.2 * math.sqrt(1e4 * 0.5), dt=0.2 / math.sqrt(2e4), start_check=False)
     bowl = Bowl((0, 0, 3.0), 3.0)
     par = World(x, np.full(n, 0.1), np.ones(n), terrain=bowl, broadphase="grid", **kw)
     ser = World(x, np.full(n, 0.1), np.ones(n), terrain=bowl, broadphase="all_pairs", **kw)
@@ -58,6 +59,7 @@ def test_large_world_storage_order_changes_only_round_off():
         terrain=Bowl((0, 0, 3.0), 3.0),
         broadphase="grid",
         mu=0.2,
+        start_check=False,  # (a lattice packed into the bowl: the corners start inside its wall)
     )
     steps = 53
     forces = rng.normal(0.0, 1.0, x.shape)
@@ -255,7 +257,11 @@ def test_a_ball_with_more_neighbours_than_the_list_holds_grows_the_list(contact_
     masses = np.ones(n)
     kw = contact_kwargs(masses, zeta=0.3)
     bowl = Bowl((0.0, 0.0, 1.0), 1.0)
-    worlds = {bp: World(x, radii, masses, terrain=bowl, broadphase=bp, **kw) for bp in ("all_pairs", "grid")}
+    # (the small balls start packed around the big one, some overlapping: on purpose)
+    worlds = {
+        bp: World(x, radii, masses, terrain=bowl, broadphase=bp, start_check=False, **kw)
+        for bp in ("all_pairs", "grid")
+    }
     g = worlds["grid"]
     first = g.neighbour_list_stats()["capacity"]
     for w in worlds.values():
@@ -346,7 +352,7 @@ def test_serial_and_parallel_list_steps_agree_bit_for_bit_and_a_batch_equals_eac
     rng = np.random.default_rng(3)
     v = rng.normal(0.0, 0.3, x.shape)
     kw = dict(ks=1e4, kd=2 * 0.3 * math.sqrt(1e4 * 0.5), dt=0.2 / math.sqrt(2e4), mu=0.3, terrain=bowl)
-    kw.update(broadphase="grid", stepping="neighbour_list")
+    kw.update(broadphase="grid", stepping="neighbour_list", start_check=False)  # (piles: packed on purpose)
     forces = rng.normal(0.0, 0.5, x.shape)
 
     def run(xb, vb, fb, threads, serial_max):

@@ -92,3 +92,25 @@ def test_set_parameters_checks_its_arguments():
     assert per.parameters(2)["ks"] == 1e7 and per.parameters(1)["ks"] == 2e4
     with pytest.raises(ValueError, match="events=True"):
         World(x, [0.15, 0.15], [1.0, 0.5], v, per_world=True, events=True, **dict(KW, motors=()))
+
+
+def test_a_per_world_friction_under_the_history_spring_steps_as_a_fixed_world_with_it():
+    """The tangential history spring (a heap's static friction) with per-world parameters: a world
+    given its own friction coefficient steps exactly as a fixed World made with it, and the others
+    as the fixed World of the shared value (bit for bit: the scalar path reads world b's model)."""
+    B = 4
+    rng = np.random.default_rng(5)
+    x = np.zeros((B, 3, 3))
+    x[:, :, 0] = [-0.25, 0.0, 0.25]
+    x[:, :, 2] = 0.12
+    v = rng.normal(scale=0.5, size=(B, 3, 3))
+    kw = dict(KW, rotation=True, tangential="history", motors=())
+    per = World(x, [0.12] * 3, [0.5] * 3, v, per_world=True, **kw)
+    per.set_parameters([2], mu=0.8)
+    fixed = World(x, [0.12] * 3, [0.5] * 3, v, **kw)
+    alone = World(x[2], [0.12] * 3, [0.5] * 3, v[2], **dict(kw, mu=0.8))
+    for w in (per, fixed, alone):
+        w.step(300)
+    assert np.array_equal(per.positions[[0, 1, 3]], fixed.positions[[0, 1, 3]])
+    assert np.array_equal(per.positions[2], alone.positions)
+    assert not np.array_equal(per.positions[2], fixed.positions[2])  # (the friction mattered)

@@ -225,6 +225,7 @@ def test_a_pair_only_scene_conserves_total_angular_momentum_to_round_off(d, tang
         rotation=True,
         tangential=tangential,
         dt=2e-4,
+        start_check=False,  # (a cluster: its balls start in contact, some deep, on purpose)
     )
     w.set_state(angular_velocities=om)
     L0 = w.angular_momentum()
@@ -232,7 +233,9 @@ def test_a_pair_only_scene_conserves_total_angular_momentum_to_round_off(d, tang
     for _ in range(40):
         w.step(50)
         touched = max(touched, w.max_penetration())
-        scale = float(np.abs(np.cross(w.positions, w.velocities * masses[:, None])).sum() + np.abs(om).sum())
+        r, p = w.positions, w.velocities * masses[:, None]
+        moment = r[..., 0] * p[..., 1] - r[..., 1] * p[..., 0] if r.shape[-1] == 2 else np.cross(r, p)
+        scale = float(np.abs(moment).sum() + np.abs(om).sum())
         assert np.abs(w.angular_momentum() - L0).max() <= 1e-12 * scale
     assert touched > 0.0  # they did collide
     assert np.abs(w.angular_velocities - om).max() > 0.1  # and the contacts turned them

@@ -105,12 +105,29 @@ class StepBuffers(NamedTuple):
     status: np.ndarray  # (B,) int64: the World's status (0 ok, 1 NaN or inf)
 
     # the info rows by name
-    reward_goal = property(lambda self: self.info[_R_GOAL])
-    reward_reach = property(lambda self: self.info[_R_REACH])
-    reward_success = property(lambda self: self.info[_R_SUCCESS])
-    distance = property(lambda self: self.info[_R_DISTANCE])  # ball-goal distance, m
-    pusher_distance = property(lambda self: self.info[_R_PUSHER])  # pusher-push point distance, m
-    max_overlap = property(lambda self: self.info[_R_OVERLAP])  # the largest overlap / the smaller radius
+    @property
+    def reward_goal(self) -> np.ndarray:
+        return self.info[_R_GOAL]
+
+    @property
+    def reward_reach(self) -> np.ndarray:
+        return self.info[_R_REACH]
+
+    @property
+    def reward_success(self) -> np.ndarray:
+        return self.info[_R_SUCCESS]
+
+    @property
+    def distance(self) -> np.ndarray:  # ball-goal distance, m
+        return self.info[_R_DISTANCE]
+
+    @property
+    def pusher_distance(self) -> np.ndarray:  # pusher-push point distance, m
+        return self.info[_R_PUSHER]
+
+    @property
+    def max_overlap(self) -> np.ndarray:  # the largest overlap / the smaller radius
+        return self.info[_R_OVERLAP]
 
 
 class SceneArrays(NamedTuple):

@@ -209,7 +209,7 @@ class PenaltyBallsScene:
         """The settled bed (made once per configuration: :class:`.sand.SandBed`)."""
         p = self.params
         key = (self.gravity, self.ks, self.kd, self.ks_terrain, self.kd_terrain, self.kf, p["friction"])
-        key += (p["physics"], p["rolling_resistance"])
+        key += (p["physics"], p["rolling_resistance"])  # type: ignore[assignment]
         return SandBed(
             self.dim,
             self.terrain,
@@ -427,11 +427,8 @@ class PenaltyBallsScene:
             flat = np.array([self.start.sample(rng) for rng in gens])
         flat = flat.reshape(idx.size, self.n_bodies + 1, -1)
         if self.terrain.per_world:  # a new terrain for each world (after the start's draws)
-            rough = (
-                self.randomizer.rows.roughness[idx]
-                if self.randomizer is not None
-                else [self.terrain.roughness] * idx.size
-            )  # type: ignore[union-attr]
+            rows = self.randomizer.rows if self.randomizer is not None else None
+            rough = rows.roughness[idx] if rows is not None else [self.terrain.roughness] * idx.size
             self.world.set_heights(0, self.terrain.draw(gens, np.asarray(rough)), worlds=idx)
             self.terrain_version[idx] += 1
         pos = self.on_terrain(flat, idx)
@@ -513,6 +510,36 @@ class PenaltyBallsScene:
 
     def first_bad_action(self, skip: np.ndarray) -> int:
         return int(KE.first_bad_action(self.actions, skip))
+
+    def view_subject(self) -> Any:
+        """What the observation views read (:class:`..views.ViewSubject`): the balls (drawn: the
+        grains, the obstacles, the pusher, the ball on top), the goal, the terrain, the height
+        map centred on the pusher and bounded by the bowl's height."""
+        from ..views import ViewSubject
+        from ..views.raster import BALL_COLOR, GRAIN_COLOR, OBSTACLE_COLOR, PUSHER_COLOR
+
+        nb = self.n_bodies
+        colors = [PUSHER_COLOR, BALL_COLOR] + [OBSTACLE_COLOR] * self.n_obstacles + [GRAIN_COLOR] * self.n_grains
+        return ViewSubject(
+            dim=self.dim,
+            n_worlds=self.n_worlds,
+            state_space=self.observation_space,
+            state=self.obs,
+            world=self.world,
+            # (B, n): a randomised scene's live rows, drawn at each reset; a fixed scene's, repeated
+            radii=self.world.model.radii
+            if self.randomize
+            else np.ascontiguousarray(np.tile(self.radii, (self.n_worlds, 1))),
+            colors=255.0 * np.array(colors),
+            order=np.array([*range(nb, self.n_balls), *range(2, nb), 0, 1], dtype=np.int64),
+            focus=None,
+            goal=self.goal,
+            goal_radius=self.goal_tolerance,
+            terrain=self.terrain.heights(self.world),
+            terrain_per_world=self.terrain.per_world,
+            terrain_version=self.terrain_version,
+            height_bound=2.0 * self.bowl_radius,
+        )
 
     def renderer(self) -> Any:
         from ..views.render import Renderer

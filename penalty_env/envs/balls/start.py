@@ -55,8 +55,9 @@ class StartSampler:
         (documented in the env's "Starting State") come in a fixed order. Plain floats: a start is
         a handful of scalars, and numpy's per-call cost would dominate. ``b``: a randomised scene's
         world (its drawn radii); None: the fixed radii."""
-        randomised = b is not None and self._push_offset is not None
-        contact = float(self._push_offset[b]) if randomised else self._contact
+        push, rows = self._push_offset, self._radii_rows
+        randomised = b is not None and push is not None and rows is not None
+        contact = float(push[b]) if randomised else self._contact  # type: ignore[index]
         g0, g1 = GOAL_DISTANCE
         ball: tuple[float, ...]
         target: tuple[float, ...]
@@ -79,7 +80,7 @@ class StartSampler:
             pusher = (ball[0] - side * (contact + p0 + (p1 - p0) * u[3]),)
         placed = [pusher, ball]
         if self.n_obstacles:
-            self._place_obstacles(rng, placed, target, self._radii_rows[b].tolist() if randomised else None)
+            self._place_obstacles(rng, placed, target, rows[b].tolist() if randomised else None)  # type: ignore[index]
         placed.append(target)
         return [c for h in placed for c in h]
 

@@ -17,10 +17,11 @@ from ... import _validate as V
 from ...physics import Box, Plane, World
 from ..beds import remembered_bed, settle
 from ..contact import ContactRule, configure_task, derive, substeps_for
+from ..randomize import Field, check_override, check_ranges, draw
 from ..terrains.arena import walls as arena_walls
 from . import kernel as LK
 
-__all__ = ["SandLevelScene", "LEVEL_PARAMETERS", "LEVEL_EPISODE_STEPS", "settled_heap"]
+__all__ = ["SandLevelScene", "LEVEL_FIELDS", "LEVEL_PARAMETERS", "LEVEL_EPISODE_STEPS", "settled_heap"]
 
 # ----------------------------------------------------------------------------------------------
 # The task's constants (the env docstring's tables)
@@ -61,6 +62,19 @@ LEVEL_PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
 }
 TARGETS = ("flat", "random")
 
+# randomize={name: (low, high)}: the fields a level world may draw at each reset (before the
+# turn of its heap and its blade's side), in this order
+LEVEL_FIELDS: dict[str, Field] = {
+    f.name: f
+    for f in (
+        Field("friction", (0.0, 1.5), "Coulomb friction mu of every contact (grains, floor, walls, blade)"),
+        Field("grain_mass", (0.05, 2.0), "every grain's mass, kg (the heap keeps its settled shape; it re-settles)"),
+        Field(
+            "blade_speed", LEVEL_PARAMETERS["blade_speed"][1:3], "the blade's top speed per axis, m/s", "blade_speed"
+        ),
+    )
+}
+
 
 def _parameters(dim: Any, params: dict[str, Any], owner: str) -> dict[str, Any]:
     """Validated keyword arguments with their defaults (ValueError naming the argument, its value
@@ -87,16 +101,26 @@ class SandLevelScene:
         n_worlds: number of independent worlds B.
         dim: 3 (spheres) or 2 (disks in the arena's vertical slice).
         owner: the caller named in the TypeError for an unknown keyword argument.
+        randomize: None, or ranges ``{name: (low, high)}`` of :data:`LEVEL_FIELDS` each world draws
+            at each reset (the env docstring's "Domain randomisation").
         **params: ``target`` ("flat" or "random") and the keywords of :data:`LEVEL_PARAMETERS`.
     """
 
     settle_time: float  # (set by settled_heap: how long the heap settled, s, and its last grain speed, m/s)
     settle_speed: float
 
-    def __init__(self, n_worlds: int, dim: int = 3, owner: str = "PenaltySandLevelEnv.__init__", **params: Any):
+    def __init__(
+        self,
+        n_worlds: int,
+        dim: int = 3,
+        owner: str = "PenaltySandLevelEnv.__init__",
+        randomize: Any = None,
+        **params: Any,
+    ):
         self.n_worlds = V.integer("n_worlds", n_worlds, 1)
         p = _parameters(dim, params, owner)
         self.params = p
+        self.randomize = check_ranges(randomize, LEVEL_FIELDS)
         self.dim = d = p["dim"]
         self.n_grains = n = p["grains"]
         self.cells = p["cells"]
@@ -141,18 +165,22 @@ class SandLevelScene:
         30% and the core's stability limit for every contact."""
         d, T = self.dim, self.control_period
         column = math.ceil(self.heap_lattice(self.n_grains)[:, -1].max() / (2.0 * GRAIN_RADIUS)) + 1
+        # randomised: the springs of the fastest blade and the heaviest grains (the corners that
+        # need the stiffest), the substep of the lightest grains with them
+        speed = self.randomize.get("blade_speed", (self.blade_speed,) * 2)[1]
+        m_lo, m_hi = self.randomize.get("grain_mass", (GRAIN_MASS, GRAIN_MASS))
         rule = ContactRule(
-            speed=2.0 * self.blade_speed * math.sqrt(d - 1),
+            speed=2.0 * speed * math.sqrt(d - 1),
             penetration=0.1,
             restitution=0.3,
             accuracy=0.3,
-            force=column * GRAIN_MASS * GRAVITY,
+            force=column * m_hi * GRAVITY,
             gravity=GRAVITY,
             control_period=T,
         )
-        pair = np.full(2, GRAIN_MASS), np.full(2, GRAIN_RADIUS)
+        pair = np.full(2, m_hi), np.full(2, GRAIN_RADIUS)
         self.config = configure_task(rule, *pair)
-        springs = derive(rule, *pair, (0, 1), GRAIN_MASS, self.config.zeta, self.config.stiffening)
+        springs = derive(rule, *pair, (0, 1), m_hi, self.config.zeta, self.config.stiffening)
         self.ks, self.kd, self.ks_terrain, self.kd_terrain = springs
         self.gravity = GRAVITY
         self.world_kwargs: dict[str, Any] = dict(
@@ -174,7 +202,10 @@ class SandLevelScene:
         )
         lattice = self.heap_lattice(self.n_grains)
         probe = World(lattice, self.radii, self.masses, dt=T, allow_unstable=True, **self.world_kwargs)
-        self.substeps = substeps_for(T, min(self.config.dt, probe.stability_limit()))
+        limit = probe.stability_limit()
+        if m_lo != GRAIN_MASS:  # the lightest grains' contacts are the shortest
+            limit = min(limit, probe.stability_limit_for(np.full(self.n_grains, m_lo), self.radii, *springs))
+        self.substeps = substeps_for(T, min(self.config.dt, limit))
         self.dt = T / self.substeps
 
     def _terrain(self) -> tuple:
@@ -212,14 +243,20 @@ class SandLevelScene:
 
     def _make_world(self) -> None:
         start = np.repeat(self.bed[None], self.n_worlds, axis=0)
-        self.world = World(start, self.radii, self.masses, dt=self.dt, **self.world_kwargs)
+        kwargs = dict(self.world_kwargs, per_world=True) if self.randomize else self.world_kwargs
+        self.world = World(start, self.radii, self.masses, dt=self.dt, **kwargs)
+        # each world's blade speed (a randomised scene's drawn ones; the bound of the observation's
+        # blade velocity is the fastest)
+        self.blade_speeds = np.full(self.n_worlds, self.blade_speed)
+        self.top_speed = self.randomize.get("blade_speed", (self.blade_speed,) * 2)[1]
+        self.drawn = np.tile([self._nominal(n) for n in self.randomize], (self.n_worlds, 1))
 
     def _spaces(self) -> None:
         d, C, L = self.dim, self.n_cells, HALF_WIDTH
         h = d - 1
         self.obs_size = 2 * C + 2 * h
-        low = np.concatenate([np.zeros(2 * C), np.full(h, -L), np.full(h, -self.blade_speed)])
-        high = np.concatenate([np.full(2 * C, MAP_TOP), np.full(h, L), np.full(h, self.blade_speed)])
+        low = np.concatenate([np.zeros(2 * C), np.full(h, -L), np.full(h, -self.top_speed)])
+        high = np.concatenate([np.full(2 * C, MAP_TOP), np.full(h, L), np.full(h, self.top_speed)])
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (h,), dtype=np.float32)
         self.action_size = h
@@ -339,6 +376,10 @@ class SandLevelScene:
         d, k = self.dim, len(idx)
         target = None if options is None else options.get("target")
         targets = None if target is None else [self.check_target(target)] * k
+        if self.randomize:  # each world's draws, before its heap and blade
+            self._apply_draws(idx, rngs, None if options is None else options.get("randomize"))
+        elif options is not None and options.get("randomize") is not None:
+            check_override(options["randomize"], self.randomize)  # (refused: nothing randomised at make)
         u = np.array([rng.random(2) for rng in rngs])
         grains = self._bed_copies(u[:, 0])
         for j, b in enumerate(idx):
@@ -407,10 +448,12 @@ class SandLevelScene:
             b = int(idx[np.argmax(bad)])
             where = "" if self.n_worlds == 1 else f" of world {b}"
             raise ValueError(f"the action{where} contains NaN or inf: {self.actions[b].tolist()}")
-        T, v = self.control_period, self.blade_speed
+        T = self.control_period
+        v = self.blade_speeds[idx] if self.randomize else self.blade_speed
+        v_axes = v[:, None] if self.randomize else v
         pos = self.blade[idx]
         new = pos.copy()
-        new[:, :-1] = np.clip(pos[:, :-1] + np.clip(a, -1.0, 1.0) * v * T, -self.blade_range, self.blade_range)
+        new[:, :-1] = np.clip(pos[:, :-1] + np.clip(a, -1.0, 1.0) * v_axes * T, -self.blade_range, self.blade_range)
         goal = self._bottom(self.targets[idx], new[:, :-1]) + self.blade_half[-1]
         new[:, -1] = pos[:, -1] + np.clip(goal - pos[:, -1], -v * T, v * T)
         vel = (new - pos) / T
@@ -442,7 +485,7 @@ class SandLevelScene:
         obs[idx, :C] = self.maps[idx]
         obs[idx, C : 2 * C] = self.targets[idx]
         obs[idx, 2 * C : 2 * C + h] = self.blade[idx, :-1]
-        obs[idx, 2 * C + h :] = np.clip(self.blade_velocity[idx, :-1], -self.blade_speed, self.blade_speed)
+        obs[idx, 2 * C + h :] = np.clip(self.blade_velocity[idx, :-1], -self.top_speed, self.top_speed)
 
     def frame(self, b: int, scale: int = 16) -> np.ndarray:
         """World b as a uint8 RGB image: the height map (left) and the target (right), each cell a
@@ -468,9 +511,62 @@ class SandLevelScene:
     # ------------------------------------------------------------------ the engine's Task protocol
     info_keys = ("error", "initial_error", "grains_lost")
     int_info = ("grains_lost",)
-    nested_infos: dict[str, tuple[tuple[str, ...], np.ndarray]] = {}
-    reset_options = ("target",)
+    reset_options = ("target", "randomize")
     owner = "PenaltySandLevel"
+
+    @property
+    def nested_infos(self) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:
+        return {"randomization": (tuple(self.randomize), self.drawn)} if self.randomize else {}
+
+    def _nominal(self, name: str) -> float:
+        return {"friction": GRAIN_FRICTION, "grain_mass": GRAIN_MASS, "blade_speed": self.blade_speed}[name]
+
+    def _apply_draws(self, idx: np.ndarray, rngs: Any, override: Any) -> None:
+        """Draw the fields of the worlds ``idx`` (one uniform per field from each world's generator,
+        :func:`..randomize.draw`) and set them: the World's friction and grain masses (its inertia,
+        friction and rolling slopes follow, ``World.set_parameters``; every draw is within the
+        make-time guard's corners), the blade's speed."""
+        ranges = check_override(override, self.randomize)
+        drawn = draw(list(rngs), ranges)
+        self.drawn[idx] = drawn
+        values = dict(zip(ranges, drawn.T))
+        kwargs: dict[str, Any] = {}
+        if "friction" in values:
+            kwargs["mu"] = values["friction"]
+        if "grain_mass" in values:
+            kwargs["masses"] = np.repeat(values["grain_mass"][:, None], self.n_grains, axis=1)
+        if kwargs:
+            self.world.set_parameters(idx, guard=False, **kwargs)
+        if "blade_speed" in values:
+            self.blade_speeds[idx] = values["blade_speed"]
+
+    def view_subject(self) -> Any:
+        """What the observation views read (:class:`..views.ViewSubject`): the grains, the arena's
+        floor and walls, the height map centred on the blade and bounded by the map's top; no
+        goal drawn (the target is the state's map)."""
+        from ..terrains import PLANE
+        from ..terrains.base import plain_heights
+        from ..views import ViewSubject
+        from ..views.raster import GRAIN_COLOR
+
+        n = self.n_grains
+        return ViewSubject(
+            dim=self.dim,
+            n_worlds=self.n_worlds,
+            state_space=self.observation_space,
+            state=self.obs,
+            world=self.world,
+            radii=np.ascontiguousarray(np.tile(self.radii, (self.n_worlds, 1))),
+            colors=255.0 * np.tile(GRAIN_COLOR, (n, 1)),
+            order=np.arange(n, dtype=np.int64),
+            focus=self.blade,
+            goal=np.full((self.n_worlds, self.dim), np.nan),
+            goal_radius=0.0,
+            terrain=plain_heights(PLANE, 0.0, MAP_TOP, half_width=HALF_WIDTH),
+            terrain_per_world=False,
+            terrain_version=np.zeros(self.n_worlds, dtype=np.int64),
+            height_bound=MAP_TOP,
+        )
 
     def first_bad_action(self, skip: np.ndarray) -> int:
         bad = ~np.all(np.isfinite(self.actions), axis=1) & ~skip

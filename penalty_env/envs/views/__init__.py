@@ -29,7 +29,7 @@ it, so a world's observation does not depend on which env holds it.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from gymnasium import spaces
@@ -37,18 +37,15 @@ from gymnasium import spaces
 from ... import _validate as V
 from ..._jit import compile_notice, entry_point
 from ...physics.stepping import runner as runner_module
+from ..terrains import TerrainHeights
 from .raster import (
-    BALL_COLOR,
-    GRAIN_COLOR,
-    OBSTACLE_COLOR,
-    PUSHER_COLOR,
     VIEW_HALF_WIDTH,
     heightmap_worlds,
     rgb_worlds,
     terrain_images,
 )
 
-__all__ = ["Views", "StateView", "OBS_MODES", "VIEW_PARAMETERS", "pop_view_kwargs", "check_obs_mode"]
+__all__ = ["Views", "StateView", "ViewSubject", "OBS_MODES", "VIEW_PARAMETERS", "pop_view_kwargs", "check_obs_mode"]
 
 OBS_MODES = ("state", "heightmap", "rgb")
 
@@ -103,6 +100,26 @@ def _check_parameter(name: str, value: Any) -> Any:
     return V.in_range(name, value, lo, hi, meaning)
 
 
+class ViewSubject(NamedTuple):
+    """What a task shows its views (its ``view_subject()``): live arrays, read at every call."""
+
+    dim: int
+    n_worlds: int
+    state_space: spaces.Box  # the task's state vector (one world's)
+    state: np.ndarray  # (B, size) float32: the task's state vectors
+    world: Any  # the World (its positions: ``world.runner.physics.x``)
+    radii: np.ndarray  # (B, n): each world's radii
+    colors: np.ndarray  # (n, 3), 0..255: each ball's colour
+    order: np.ndarray  # the balls in drawing order (the last on top)
+    focus: np.ndarray | None  # (B, d): where each world's height map is centred; None: ball 0
+    goal: np.ndarray  # (B, d): the goal drawn in the image (NaN: none)
+    goal_radius: float
+    terrain: TerrainHeights  # the ground's height (:mod:`..terrains`)
+    terrain_per_world: bool  # drawn anew at resets: one image per world
+    terrain_version: np.ndarray  # (B,): bumped at every reset that redraws a world's terrain
+    height_bound: float  # the height map's upper bound
+
+
 class StateView:
     """The engine's view of a task observed by its state vector alone (the task's ``obs``)."""
 
@@ -149,35 +166,23 @@ class Views:
         self.heightmap_cells: int = _check_parameter("heightmap_cells", heightmap_cells)
         self.heightmap_cell: float = _check_parameter("heightmap_cell", heightmap_cell)
         self.rgb_size: int = _check_parameter("rgb_size", rgb_size)
-        d = scene.dim
-        self.height_bound = 2.0 * scene.bowl_radius
+        subject = self.subject = scene.view_subject()
+        d = subject.dim
+        self.height_bound = subject.height_bound
         H, S = self.heightmap_cells, self.rgb_size
         self.heightmap_shape = (H, H) if d == 3 else (H,)
         self.rgb_shape = (S, S, 3)
         self.scale = S / (2.0 * VIEW_HALF_WIDTH)  # pixels per metre
         self.ground = 0.8 * S  # 2D: the pixel row of z = 0
         singles: dict[str, spaces.Space] = {
-            "state": scene.observation_space,
+            "state": subject.state_space,
             "heightmap": spaces.Box(0.0, np.float32(self.height_bound), self.heightmap_shape, dtype=np.float32),
             "rgb": spaces.Box(0, 255, self.rgb_shape, dtype=np.uint8),
         }
         self.space: spaces.Space = (
             spaces.Dict({m: singles[m] for m in self.modes}) if self.is_dict else singles[self.modes[0]]
         )
-        self.terrain = scene.terrain.heights(scene.world)  # (its height field: the World's live table)
-        self.per_world_terrain = scene.terrain.per_world
-        self.colors = 255.0 * np.array(
-            [PUSHER_COLOR, BALL_COLOR] + [OBSTACLE_COLOR] * scene.n_obstacles + [GRAIN_COLOR] * scene.n_grains
-        )
-        # (B, n): each world's radii (a randomised scene's live rows, drawn at each reset; a fixed
-        # scene's, repeated: one kernel type for both)
-        self.radii = (
-            scene.world.model.radii
-            if scene.randomize
-            else np.ascontiguousarray(np.tile(scene.radii, (scene.n_worlds, 1)))
-        )
-        nb = scene.n_bodies  # drawn: the grains, the obstacles, the pusher, the ball (on top)
-        self.order = np.array([*range(nb, scene.n_balls), *range(2, nb), 0, 1], dtype=np.int64)
+        self._all = np.arange(subject.n_worlds, dtype=np.int64)
         self._backgrounds: np.ndarray | None = None
         self._kernels: dict[str, Any] = {}
 
@@ -190,7 +195,7 @@ class Views:
     def observe(self, worlds: Sequence[int] | np.ndarray | None = None) -> Any:
         """The observations of ``worlds`` (default: every world), stacked in that order: one array
         with a leading axis, or (a ``Dict`` mode) a dict of them keyed by mode. Fresh arrays."""
-        idx = self.scene._all if worlds is None else np.ascontiguousarray(worlds, dtype=np.int64)
+        idx = self._all if worlds is None else np.ascontiguousarray(worlds, dtype=np.int64)
         out = {m: self._observe(m, idx) for m in self.modes}
         return out if self.is_dict else out[self.modes[0]]
 
@@ -205,33 +210,34 @@ class Views:
         return batch[t].copy()
 
     def _observe(self, mode: str, idx: np.ndarray) -> np.ndarray:
-        scene = self.scene
+        v = self.subject
         k = idx.size
         if mode == "state":
-            return scene.obs[idx]
-        x = scene.world.runner.physics.x
+            return v.state[idx]
+        x = v.world.runner.physics.x
         if mode == "heightmap":
             H = self.heightmap_cells
-            W = H if scene.dim == 3 else 1
+            W = H if v.dim == 3 else 1
             hm = np.empty((k, H, W), dtype=np.float32)
-            tail = (x, x[:, 0], self.radii, self.terrain, W, self.heightmap_cell, 0.0, self.height_bound)
+            focus = x[:, 0] if v.focus is None else v.focus
+            tail = (x, focus, v.radii, v.terrain, W, self.heightmap_cell, 0.0, self.height_bound)
             self._dispatch("heightmap", heightmap_worlds, idx, hm, tail, _HEIGHTMAP_WORK)
-            return hm if scene.dim == 3 else hm.reshape(k, H)
+            return hm if v.dim == 3 else hm.reshape(k, H)
         backgrounds, background_of = self._terrain_images(idx)
         img = np.empty((k,) + self.rgb_shape, dtype=np.uint8)
-        tail = (
+        tail_rgb = (
             x,
-            self.radii,
-            self.colors,
-            self.order,
-            scene.goal,
-            scene.goal_tolerance,
+            v.radii,
+            v.colors,
+            v.order,
+            v.goal,
+            v.goal_radius,
             backgrounds,
             background_of,
             self.scale,
             self.ground,
         )
-        self._dispatch("rgb", rgb_worlds, idx, img, tail, _RGB_WORK)
+        self._dispatch("rgb", rgb_worlds, idx, img, tail_rgb, _RGB_WORK)
         return img
 
     def _dispatch(self, name: str, fn: Any, idx: np.ndarray, out: np.ndarray, tail: tuple, work: int) -> None:
@@ -252,9 +258,9 @@ class Views:
         """The terrain images and each world's row in them: one image for the bowl and the arena
         (the same in every world), one per world on the bumpy ground, redrawn for the worlds of
         ``idx`` whose ``terrain_version`` changed since it was drawn."""
-        s = self.scene
+        s = self.subject
         S = self.rgb_size
-        per_world = self.per_world_terrain
+        per_world = s.terrain_per_world
         if self._backgrounds is None:
             count = s.n_worlds if per_world else 1
             self._backgrounds = np.zeros((count, S, S, 3), dtype=np.uint8)
@@ -272,7 +278,7 @@ class Views:
 
     def _draw(self, worlds: np.ndarray) -> None:
         rows = self._background_of[worlds]
-        tail = (self.terrain, self.scale, self.ground, self.scene.dim)
+        tail = (self.subject.terrain, self.scale, self.ground, self.subject.dim)
         assert self._backgrounds is not None
         calls = [(c, rows[c0 : c0 + c.size], self._backgrounds) + tail for c0, c in self._chunked(worlds)]
         kernel = self._kernels.get("terrain")
