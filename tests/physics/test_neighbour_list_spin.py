@@ -47,10 +47,11 @@ def _assert_alike(lst: World, ref: World) -> None:
 
 
 def _scalar_springs(w: World):
-    """The scalar path's live pair springs (i < j, from i's side), as ``live_springs`` lists them."""
+    """The scalar path's live pair springs (i < j, from i's side), as ``live_springs`` lists them
+    (without an exactly zero one: the list keeps none, a zero spring being a new contact's)."""
     sp = w._spin
     n = w.n_balls
-    live = sp.stamp[0, :, :n] == sp.clock[0]
+    live = (sp.stamp[0, :, :n] == sp.clock[0]) & np.any(sp.hist[0, :, :n] != 0.0, axis=-1)
     i, j = np.nonzero(live)
     return np.stack([i, j], axis=1), sp.hist[0, i, j]
 

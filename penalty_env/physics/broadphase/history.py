@@ -1,34 +1,47 @@
 """The tangential springs of a neighbour-list world: stored per list slot, carried through rebuilds.
 
 On the scalar path a spring lives at ``Spin.hist[b, i, j]``, one slot per ball pair: O(n^2), which
-a world of 10^5 balls cannot hold. The neighbour-list path (:mod:`..stepping.large_spin`) keeps a
-:class:`~..model.Spin` of its own whose rows are its storage slots and whose columns are the
-list's: ``hist[0, i, m]`` is the spring of i and its m-th listed partner ``nbr[i, m]`` (kept from
-i's side, the pair's lower slot), ``hist[0, i, cap + s]`` that of i and terrain shape s. Memory:
-``n x (cap + shapes) x 32`` bytes (the spring and its stamp), O(n x neighbours).
+a world of 10^5 balls cannot hold. The neighbour-list path (:mod:`..stepping.large_spin`) keeps:
 
-A pair whose ball has escaped its list (:mod:`..stepping.large`) is met by the serial escaped pass,
-which finds its spring where the list holds it, and else in a small table of the escaped ball's
-own (:attr:`ListHistory.over_partner`, the springs in a second ``Spin``: ``over.hist[0, e, k]``
-for the e-th escaped ball, keyed by the partner's slot; sized by a count before each escaped pass,
-grown when short). Every pair is evaluated from its lower slot's side (the law is antisymmetric to
-the bit), so a spring has one orientation wherever it is kept.
+* the listed pairs' springs packed in the list's own order, :attr:`ListHistory.pair_springs`: the
+  spring of storage slot i and its m-th listed partner ``nbr[i, m]`` at ``pair_first[i] + m``
+  (``pair_first`` the running sum of the list's counts at the build), kept from i's side (the
+  pair's lower slot). A step reads and writes them in the order it walks the list, one contiguous
+  stream. Every listed pair of a ball that has not escaped is met at every step, and the step
+  writes the spring of a pair in contact and zero for one apart; so a spring that is zero is a new
+  contact's (the law turns a zero spring into zero: a new contact and a continuing one whose spring
+  is zero give the same force to the bit), and no stamp is needed;
+* each ball's terrain springs in a :class:`~..model.Spin` of the list's own, rows the storage
+  slots, ``hist[0, i, s]`` for terrain shape s, with stamps (the scalar path's rule: continuing
+  when written in the step before), re-sorted with the balls;
+* an escaped ball's pairs (met by the serial escaped pass, not the list's) in a table of that
+  ball's own: a second Spin, ``over.hist[0, e, k]`` for the e-th escaped ball, keyed by the
+  partner's slot (:attr:`ListHistory.over_partner`), with stamps. When a ball escapes, its listed
+  springs move into its table (:func:`move_escaped_springs`: its row, and the rows of the balls
+  that list it, found in the cells around where it was at the build) and their list slots are
+  zeroed; the pair of two escaped balls is the earlier one's. A table is sized by a count before
+  each escaped pass and grown when short; when a ball's listed springs do not fit its table as it
+  escapes, the list is rebuilt instead.
+
+Memory: ``n x cap x 24`` bytes for the listed springs (cap the list's width), ``n x shapes x 32``
+for the terrain's: O(n x neighbours).
 
 Carried through a rebuild as LAMMPS's ``fix neigh/history`` carries its partners' values:
 
-1. before the storage is re-sorted, :func:`save_springs` copies every live spring (written in the
-   last step: its stamp is the clock) of the list and of the escaped balls' tables into a compact
-   table by the old lower slot (``carry_start`` / ``carry_partner`` / ``carry_hist``), and notes
-   which ball held each old slot (``slot_ball``, the storage order the list was built in);
+1. before the storage is re-sorted, :func:`save_springs` copies every live spring of the list
+   (not zero) and of the escaped balls' tables (written in the last step) into a compact table by
+   the old lower slot (``carry_start`` / ``carry_partner`` / ``carry_hist``), and ``slot_ball``
+   says which ball held each old slot (the storage order the list was built in);
 2. the storage is re-sorted and the list rebuilt; each ball's terrain springs move with it;
 3. :func:`restore_springs`, for each new listed pair, maps both new slots to their balls and
    those to their old slots, looks the pair up in the compact table (a few entries per ball) and
-   takes its spring, negated when the pair's lower slot is now the other ball (the orientation
-   follows the lower slot). A listed pair without a saved spring starts at zero, as a new contact.
+   takes its spring, negated when the pair's lower slot is now the other ball (every pair is
+   evaluated from its lower slot's side and the law is antisymmetric to the bit). A listed pair
+   without a saved spring starts at zero, as a new contact.
 
 A contact that persists keeps its spring whatever the rebuilds and re-sorts; one that has ended
-is not carried (not being live), exactly as the scalar path forgets it. Should the list be too
-small for the new build, the saved springs wait (``state[0]``) while the caller grows it.
+is not carried, exactly as the scalar path forgets it. Should the list be too small for the new
+build, the saved springs wait (``state[PENDING]``) while the caller grows it.
 """
 
 from __future__ import annotations
@@ -38,13 +51,14 @@ from typing import NamedTuple
 import numpy as np
 
 from ..._jit import njit, prange
+from .partners import cell_partners
 
 __all__ = [
     "ListHistory",
     "new_list_history",
     "save_springs",
     "restore_springs",
-    "listed_slot",
+    "move_escaped_springs",
     "overflow_slot",
     "PENDING",
     "CARRY_NEEDED",
@@ -58,8 +72,11 @@ PENDING, CARRY_NEEDED, OVERFLOW_NEEDED = 0, 1, 2
 
 class ListHistory(NamedTuple):
     """What a neighbour-list world of spinning balls keeps besides its :class:`~..model.Spin`: the
-    escaped balls' tables, the compact table of a rebuild, and which ball each slot held."""
+    listed pairs' springs, the escaped balls' tables' keys, the compact table of a rebuild, and
+    which ball each slot held."""
 
+    pair_first: np.ndarray  # (n + 1,) int64: where slot i's listed springs begin in pair_springs
+    pair_springs: np.ndarray  # (n x cap, 3): the listed pairs' springs, from the lower slot's side
     over_partner: np.ndarray  # (1, E, K) int64: partner slot of each spring of the e-th escaped ball
     carry_start: np.ndarray  # (n + 1,) int64: the compact table's entries of old slot i
     carry_cursor: np.ndarray  # (n,) int64 scratch
@@ -71,13 +88,19 @@ class ListHistory(NamedTuple):
     stamp_tmp: np.ndarray  # (n, S) int64 scratch
     inertia_tmp: np.ndarray  # (n,) scratch
     round_row: np.ndarray  # (R,) int64: the table row of each static sphere and bowl (SlimModel's order)
+    blocks: np.ndarray  # (threads, SPIN_ROWS x SPIN_BLOCK) per thread: the spinning pass's block of pairs
     state: np.ndarray  # (3,) int64: see PENDING, CARRY_NEEDED, OVERFLOW_NEEDED
 
 
-def new_list_history(n: int, shapes: int, escapes: int, per_escape: int, carry: int, round_row) -> ListHistory:
-    """The buffers of one world: n balls, ``shapes`` terrain rows, ``escapes`` escaped balls' tables of
-    ``per_escape`` springs, a compact table of ``carry`` springs."""
+def new_list_history(
+    n: int, cap: int, shapes: int, escapes: int, per_escape: int, carry: int, round_row, threads: int, block: int
+) -> ListHistory:
+    """The buffers of one world: n balls, a list ``cap`` wide, ``shapes`` terrain rows, ``escapes``
+    escaped balls' tables of ``per_escape`` springs, a compact table of ``carry`` springs, a block
+    of ``block`` numbers per thread."""
     return ListHistory(
+        pair_first=np.zeros(n + 1, dtype=np.int64),
+        pair_springs=np.zeros((n * cap, 3)),
         over_partner=np.full((1, escapes, per_escape), -1, dtype=np.int64),
         carry_start=np.zeros(n + 1, dtype=np.int64),
         carry_cursor=np.zeros(n, dtype=np.int64),
@@ -89,25 +112,32 @@ def new_list_history(n: int, shapes: int, escapes: int, per_escape: int, carry: 
         stamp_tmp=np.zeros((n, max(shapes, 1)), dtype=np.int64),
         inertia_tmp=np.zeros(n),
         round_row=np.asarray(round_row, dtype=np.int64).reshape(-1),
+        blocks=np.zeros((max(threads, 1), block)),
         state=np.zeros(3, dtype=np.int64),
     )
 
 
+@njit(hot=True)
+def _live(springs, k):
+    """A listed spring is live (its pair touched in the last step) unless it is zero."""
+    return springs[k, 0] != 0.0 or springs[k, 1] != 0.0 or springs[k, 2] != 0.0
+
+
 @njit
-def save_springs(lw, sp, over, lh):
-    """Step 1 of the carry (the module docstring): every live spring of the list (``sp``) and of the
+def save_springs(lw, over, lh):
+    """Step 1 of the carry (the module docstring): every live spring of the list and of the
     escaped balls' tables (``over``) into the compact table, by the lower old slot. Returns how
     many there are; when more than the table holds, nothing is copied (the caller grows it)."""
     nbr, cnt = lw.nbr, lw.count
     n = cnt.shape[0]
-    c = sp.clock[0]
-    stamp, hist = sp.stamp, sp.hist
+    c = over.clock[0]
+    first, springs = lh.pair_first, lh.pair_springs
     cs = lh.carry_start
     cs[0] = 0
     for i in range(n):
         live = 0
         for m in range(cnt[i]):
-            live += stamp[0, i, m] == c
+            live += _live(springs, first[i] + m)
         cs[i + 1] = live
     ne = min(lw.state[3], lw.escapes.shape[0], over.stamp.shape[1])
     K = over.stamp.shape[2]
@@ -126,11 +156,12 @@ def save_springs(lw, sp, over, lh):
         cur[i] = cs[i]
     for i in range(n):
         for m in range(cnt[i]):
-            if stamp[0, i, m] == c:
+            s = first[i] + m
+            if _live(springs, s):
                 k = cur[i]
                 lh.carry_partner[k] = nbr[i, m]
                 for q in range(3):
-                    lh.carry_hist[k, q] = hist[0, i, m, q]
+                    lh.carry_hist[k, q] = springs[s, q]
                 cur[i] = k + 1
     for e in range(ne):
         a = lw.escapes[e]
@@ -149,21 +180,25 @@ def save_springs(lw, sp, over, lh):
 
 
 @njit(parallel=True)
-def restore_springs(lw, sp, lh, threads):
+def restore_springs(lw, lh, threads):
     """Step 3 of the carry: each listed pair of the new list takes its saved spring (turned to the
-    new lower slot's side), or starts at zero. Rows in parallel, each written by one thread."""
+    new lower slot's side), or zero (a new contact). Rows in parallel, each written by one thread.
+    Sets the new list's ``pair_first``."""
     nbr, cnt, perm = lw.nbr, lw.count, lw.perm
     n = cnt.shape[0]
     # (fields bound to locals: a store through ``tuple.field[...]`` in a prange loop is dropped)
-    hist, stamp = sp.hist, sp.stamp
+    first, springs = lh.pair_first, lh.pair_springs
     old, cs, cp, ch = lh.old_slot, lh.carry_start, lh.carry_partner, lh.carry_hist
-    c = sp.clock[0]
+    first[0] = 0
+    for i in range(n):
+        first[i + 1] = first[i] + cnt[i]
     threads = max(1, threads)
     for t in prange(threads):
-        first = np.int64(t)
-        for i in range(first, n, threads):
+        start = np.int64(t)
+        for i in range(start, n, threads):
             a = old[perm[i]]
             for m in range(cnt[i]):
+                s = first[i] + m
                 b = old[perm[nbr[i, m]]]
                 owner = min(a, b)
                 other = max(a, b)
@@ -171,22 +206,57 @@ def restore_springs(lw, sp, lh, threads):
                 for k in range(cs[owner], cs[owner + 1]):
                     if cp[k] == other:
                         found = k
-                if found >= 0:
-                    sign = 1.0 if owner == a else -1.0  # (exact: the law is antisymmetric to the bit)
-                    for q in range(3):
-                        hist[0, i, m, q] = sign * ch[found, q]
-                    stamp[0, i, m] = c
-                else:
-                    stamp[0, i, m] = -1
+                sign = 1.0 if owner == a else -1.0  # (exact: the law is antisymmetric to the bit)
+                for q in range(3):
+                    springs[s, q] = sign * ch[found, q] if found >= 0 else 0.0
+
+
+@njit
+def move_escaped_springs(lw, over, lh, e0, e1, cand, D):
+    """The balls that escaped in the step just taken (escapes e0..e1-1): each one's live listed
+    springs (its own row's, and those of the rows that list it, found through the build's grid
+    around the position it was listed at) move into its table, their list slots zeroed (the list
+    pass no longer meets them; the pair of two escaped balls stays the earlier one's). False,
+    leaving everything as it was, when a ball's springs do not fit its table (the caller then
+    rebuilds the list instead)."""
+    nbr, cnt, grid = lw.nbr, lw.count, lw.grid
+    first, springs = lh.pair_first, lh.pair_springs
+    K = over.stamp.shape[2]
+    xref = lw.xref.reshape((1,) + lw.xref.shape)
+    for pass_ in range(2):  # (0: count, 1: move)
+        for e in range(e0, e1):
+            i = lw.escapes[e]
+            k = 0
+            for m in range(cnt[i]):
+                s = first[i] + m
+                if _live(springs, s):
+                    if pass_ == 1:
+                        _move(over, lh, e, k, nbr[i, m], s)
+                    k += 1
+            found = cell_partners(0, i, xref, grid, False, cand, D)
+            for t in range(found):
+                j = cand[t]
+                if j < i:
+                    for m in range(cnt[j]):
+                        s = first[j] + m
+                        if nbr[j, m] == i and _live(springs, s):
+                            if pass_ == 1:
+                                _move(over, lh, e, k, j, s)
+                            k += 1
+            if k > K:
+                return False
+    return True
 
 
 @njit(hot=True)
-def listed_slot(nbr, cnt, lo, hi):
-    """The column of slot hi in slot lo's list row (lo < hi), or -1 when the pair is not listed."""
-    for m in range(cnt[lo]):
-        if nbr[lo, m] == hi:
-            return m
-    return -1
+def _move(over, lh, e, k, partner, s):
+    """List spring s into entry k of the e-th escaped ball's table (live: stamped with the clock),
+    its list slot zeroed."""
+    lh.over_partner[0, e, k] = partner
+    for q in range(3):
+        over.hist[0, e, k, q] = lh.pair_springs[s, q]
+        lh.pair_springs[s, q] = 0.0
+    over.stamp[0, e, k] = over.clock[0]
 
 
 @njit(hot=True)

@@ -30,7 +30,7 @@ from ..broadphase.history import (
     CARRY_NEEDED,
     OVERFLOW_NEEDED,
     PENDING,
-    listed_slot,
+    move_escaped_springs,
     overflow_slot,
     restore_springs,
     save_springs,
@@ -86,26 +86,22 @@ def _touching(i, j, xs, sm, D):
 
 
 @njit(hot=True)
-def _escaped_pair(e, i, j, xs, vs, a, sm, sp, over, lh, nbr, cnt, D):
-    """The pair of the e-th escaped ball i and ball j, from its lower slot's side; its spring where
-    the list holds it, else in the escaped ball's table."""
+def _escaped_pair(e, i, j, xs, vs, a, sm, sp, over, lh, D):
+    """The pair of the e-th escaped ball i and ball j, from its lower slot's side; its spring in
+    the escaped ball's table (where its listed springs moved as it escaped)."""
     lo = min(i, j)
     hi = max(i, j)
-    if sp.kt > 0.0:
+    if sp.kt > 0.0 and sm.mu > 0.0:
         if not _touching(lo, hi, xs, sm, D):
             return
-        m = listed_slot(nbr, cnt, lo, hi)
-        if m >= 0:
-            spin_pair(0, lo, hi, lo, m, xs, vs, a, sm, sp, D)
-        else:
-            k = overflow_slot(over, lh.over_partner, e, j)
-            spin_pair(0, lo, hi, e, k, xs, vs, a, sm, over, D)
+        k = overflow_slot(over, lh.over_partner, e, j)
+        spin_pair(0, lo, hi, e, k, xs, vs, a, sm, over, D)
     else:
         spin_pair(0, lo, hi, 0, 0, xs, vs, a, sm, sp, D)
 
 
 @njit
-def _escaped_spin_contacts(xs, vs, a, grid, sm, sp, over, lh, nbr, cnt, escaped, escapes, ne, cand, D):
+def _escaped_spin_contacts(xs, vs, a, grid, sm, sp, over, lh, escaped, escapes, ne, cand, D):
     """The escaped balls' pairs (serial, each pair once), met as :func:`.large._escaped_contacts`
     meets them: through the last build's grid, and escaped balls pair by pair."""
     for e in range(ne):
@@ -114,23 +110,16 @@ def _escaped_spin_contacts(xs, vs, a, grid, sm, sp, over, lh, nbr, cnt, escaped,
         for t in range(m):
             j = cand[t]
             if escaped[j] == 0:
-                _escaped_pair(e, i, j, xs, vs, a, sm, sp, over, lh, nbr, cnt, D)
+                _escaped_pair(e, i, j, xs, vs, a, sm, sp, over, lh, D)
         for f in range(e + 1, ne):
-            _escaped_pair(e, i, escapes[f], xs, vs, a, sm, sp, over, lh, nbr, cnt, D)
-
-
-@njit(hot=True)
-def _unlisted_contact(i, j, xs, sm, nbr, cnt, D):
-    lo = min(i, j)
-    hi = max(i, j)
-    return 1 if (_touching(lo, hi, xs, sm, D) and listed_slot(nbr, cnt, lo, hi) < 0) else 0
+            _escaped_pair(e, i, escapes[f], xs, vs, a, sm, sp, over, lh, D)
 
 
 @njit
-def _escape_room(xs, grid, sm, over, nbr, cnt, escaped, escapes, ne, cand, D):
+def _escape_room(xs, grid, sm, over, escaped, escapes, ne, cand, D):
     """The most springs an escaped ball's table must hold in this step: its live ones (written in
-    the last step: they cannot be reused until the pass has met every pair) and its contacts that
-    the list does not hold (a bound: it counts a continuing one twice)."""
+    the last step: they cannot be reused until the pass has met every pair) and its contacts now
+    (a bound: it counts a continuing one twice)."""
     c = over.clock[0]
     most = 0
     for e in range(ne):
@@ -142,9 +131,10 @@ def _escape_room(xs, grid, sm, over, nbr, cnt, escaped, escapes, ne, cand, D):
         for t in range(m):
             j = cand[t]
             if escaped[j] == 0:
-                need += _unlisted_contact(i, j, xs, sm, nbr, cnt, D)
+                need += _touching(min(i, j), max(i, j), xs, sm, D)
         for f in range(e + 1, ne):
-            need += _unlisted_contact(i, escapes[f], xs, sm, nbr, cnt, D)
+            j = escapes[f]
+            need += _touching(min(i, j), max(i, j), xs, sm, D)
         most = max(most, need)
     return most
 
@@ -163,8 +153,7 @@ def _spin_shape_forces(full, sp, xs, vs, a, near, escaped, ne, first, D):
 @njit
 def _permute_spins(lw, sp, lh):
     """The spin arrays follow a re-sort of the storage (``lw.order``, set by :func:`.large._rebuild`):
-    the angular velocities, the inertia, and each ball's terrain springs (the columns after the
-    list's)."""
+    the angular velocities, the inertia, and each ball's terrain springs."""
     order = lw.order
     n = order.shape[0]
     permute_rows(sp.w, order, lw.tmp)
@@ -174,19 +163,18 @@ def _permute_spins(lw, sp, lh):
     for i in range(n):
         sp.inv_inertia[i] = it[i]
     if sp.kt > 0.0:
-        cap = lw.nbr.shape[1]
-        S = sp.hist.shape[2] - cap
+        S = sp.hist.shape[2]
         st, ht = lh.stamp_tmp, lh.shape_tmp
         for i in range(n):
             for s in range(S):
-                st[i, s] = sp.stamp[0, order[i], cap + s]
+                st[i, s] = sp.stamp[0, order[i], s]
                 for q in range(3):
-                    ht[i, s, q] = sp.hist[0, order[i], cap + s, q]
+                    ht[i, s, q] = sp.hist[0, order[i], s, q]
         for i in range(n):
             for s in range(S):
-                sp.stamp[0, i, cap + s] = st[i, s]
+                sp.stamp[0, i, s] = st[i, s]
                 for q in range(3):
-                    sp.hist[0, i, cap + s, q] = ht[i, s, q]
+                    sp.hist[0, i, s, q] = ht[i, s, q]
 
 
 @njit
@@ -196,7 +184,7 @@ def _spin_rebuild(lw, sp, over, lh, xs, vs, es, has_ext, sm, threads, g, full):
     re-sorted with the storage, restored after a build. False if a position is not finite; leaves
     ``lw.state[0]`` at 0 when the list or the compact table is too small (``lh.state``)."""
     if sp.kt > 0.0 and lh.state[PENDING] == 0:
-        total = save_springs(lw, sp, over, lh)
+        total = save_springs(lw, over, lh)
         if total > lh.carry_partner.shape[0]:
             lh.state[CARRY_NEEDED] = total
             return True
@@ -205,7 +193,7 @@ def _spin_rebuild(lw, sp, over, lh, xs, vs, es, has_ext, sm, threads, g, full):
         return False
     _permute_spins(lw, sp, lh)
     if lw.state[0] != 0 and sp.kt > 0.0:
-        restore_springs(lw, sp, lh, threads)
+        restore_springs(lw, lh, threads)
         lh.state[PENDING] = 0
         for i in range(lh.slot_ball.shape[0]):
             lh.slot_ball[i] = lw.perm[i]
@@ -214,17 +202,39 @@ def _spin_rebuild(lw, sp, over, lh, xs, vs, es, has_ext, sm, threads, g, full):
 
 
 @njit
-def _spin_slab_forces(s, layer, start, xs, vs, a, nbr, cnt, near, sm, sp, round_row, escaped, ne, D):
+def _spin_slab_forces(
+    s, layer, start, xs, vs, a, nbr, cnt, near, sm, sp, first, springs, round_row, escaped, ne, buf, D
+):
     listed_spin_forces(
-        start[s * layer], start[(s + 1) * layer], xs, vs, a, nbr, cnt, near, sm, sp, round_row, escaped, ne, D
+        start[s * layer],
+        start[(s + 1) * layer],
+        xs,
+        vs,
+        a,
+        nbr,
+        cnt,
+        near,
+        sm,
+        sp,
+        first,
+        springs,
+        round_row,
+        escaped,
+        ne,
+        buf,
+        D,
     )
 
 
 @njit
-def _spin_even_slabs(t, threads, slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, sp, round_row, escaped, ne, D):
-    """Thread t's share of the even pass (as :func:`.large._even_slabs`)."""
+def _spin_even_slabs(
+    t, threads, slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, sp, first, springs, round_row, escaped, ne, buf, D
+):
+    """Thread t's share of the even pass (as :func:`.large._even_slabs`; ``buf`` its block)."""
     for q in range(t, (slabs + 1) // 2, threads):
-        _spin_slab_forces(2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, sp, round_row, escaped, ne, D)
+        _spin_slab_forces(
+            2 * q, layer, start, xs, vs, a, nbr, cnt, near, sm, sp, first, springs, round_row, escaped, ne, buf, D
+        )
 
 
 @njit
@@ -246,11 +256,14 @@ def _spin_odd_slabs_and_advance(
     near,
     sm,
     sp,
+    first,
+    springs,
     round_row,
     g,
     xref,
     escaped,
     ne,
+    buf,
     half2,
 ):
     """Thread t's share of the odd pass (as :func:`.large._odd_slabs_and_advance`), the spins
@@ -263,7 +276,9 @@ def _spin_odd_slabs_and_advance(
         s1 = 1
         if q >= 0:
             s0 = 1 + 2 * q
-            _spin_slab_forces(s0, layer, start, xs, vs, a, nbr, cnt, near, sm, sp, round_row, escaped, ne, D)
+            _spin_slab_forces(
+                s0, layer, start, xs, vs, a, nbr, cnt, near, sm, sp, first, springs, round_row, escaped, ne, buf, D
+            )
             s1 = min(s0 + 2, slabs)
         m = _spin_advance(
             integ, dt, start[s0 * layer], start[s1 * layer], xs, vs, a, es, has_ext, sm, xref, escaped, half2, g, sp
@@ -288,7 +303,8 @@ def run_large_spin(integ, nsteps, dt, x, v, w, ext, has_ext, sm, g, status, lw, 
     xs, vs, a, es, grid = lw.x, lw.v, lw.a, lw.ext, lw.grid
     perm, nbr, cnt, near, moved = lw.perm, lw.nbr, lw.count, lw.near, lw.moved
     xref, escaped, escapes = lw.xref, lw.escaped, lw.escapes
-    ws, alpha, clock, round_row = sp.w, sp.alpha, sp.clock, lh.round_row
+    ws, alpha, clock, round_row, blocks = sp.w, sp.alpha, sp.clock, lh.round_row, lh.blocks
+    first, springs = lh.pair_first, lh.pair_springs
     threads = max(1, min(threads, moved.shape[0]))
     half2 = 0.25 * lw.skin * lw.skin
     R = ws.shape[2]
@@ -313,18 +329,37 @@ def run_large_spin(integ, nsteps, dt, x, v, w, ext, has_ext, sm, g, status, lw, 
         ne = lw.state[3]
         if ne > 0:
             if sp.kt > 0.0:
-                need = _escape_room(xs, grid, sm, over, nbr, cnt, escaped, escapes, ne, lw.candidates, D)
+                need = _escape_room(xs, grid, sm, over, escaped, escapes, ne, lw.candidates, D)
                 if need > over.stamp.shape[2]:
                     lh.state[OVERFLOW_NEEDED] = need
                     break
-            _escaped_spin_contacts(xs, vs, a, grid, sm, sp, over, lh, nbr, cnt, escaped, escapes, ne, lw.candidates, D)
-        _spin_shape_forces(full, sp, xs, vs, a, near, escaped, ne, nbr.shape[1], D)
+            _escaped_spin_contacts(xs, vs, a, grid, sm, sp, over, lh, escaped, escapes, ne, lw.candidates, D)
+        _spin_shape_forces(full, sp, xs, vs, a, near, escaped, ne, 0, D)
         layer = grid.dims[0, 0] * grid.dims[0, 1] if D == 3 else grid.dims[0, 0]
         slabs = grid.dims[0, D - 1]
         start = grid.start[0]
         for t in prange(threads):
             _spin_even_slabs(
-                t, threads, slabs, layer, start, xs, vs, a, nbr, cnt, near, sm, sp, round_row, escaped, ne, D
+                t,
+                threads,
+                slabs,
+                layer,
+                start,
+                xs,
+                vs,
+                a,
+                nbr,
+                cnt,
+                near,
+                sm,
+                sp,
+                first,
+                springs,
+                round_row,
+                escaped,
+                ne,
+                blocks[t],
+                D,
             )
         for t in prange(threads):
             moved[t] = _spin_odd_slabs_and_advance(
@@ -345,16 +380,24 @@ def run_large_spin(integ, nsteps, dt, x, v, w, ext, has_ext, sm, g, status, lw, 
                 near,
                 sm,
                 sp,
+                first,
+                springs,
                 round_row,
                 g,
                 xref,
                 escaped,
                 ne,
+                blocks[t],
                 half2,
             )
         taken += 1
         clock[0] += 1  # the step is done: its springs are now the live ones
         _collect_escapes(lw, moved, threads, ne)
+        if sp.kt > 0.0 and lw.state[0] != 0 and lw.state[3] > ne:
+            # the balls that escaped in this step take their springs into their tables, or the list
+            # is rebuilt at the next step when one does not fit
+            if not move_escaped_springs(lw, over, lh, ne, lw.state[3], lw.candidates, D):
+                lw.state[0] = 0
         advance_shapes(full.shapes, 0, dt, D)
     for i in prange(n):
         u = perm[i]

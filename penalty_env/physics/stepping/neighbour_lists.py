@@ -14,6 +14,7 @@ from ..._jit import entry_point
 from ..broadphase.history import CARRY_NEEDED, OVERFLOW_NEEDED, ListHistory, new_list_history
 from ..broadphase.verlet import SlimModel, new_large_world
 from ..contact.listed import PAIR_BLOCK, PAIR_ROWS
+from ..contact.listed_spin import SPIN_BLOCK, SPIN_ROWS
 from ..geometry.table import DIRECT
 from ..model import Spin
 from .common import STATUS_OK
@@ -69,28 +70,29 @@ class NeighbourLists:
         self.reset()
 
     def _new_spin(self, spin: Spin, lw: Any, table: Any) -> tuple[Spin, Spin, ListHistory]:
-        """One world's spin state for the list ``lw`` (its springs, with history, per list slot and
-        per ball and shape; see :mod:`..broadphase.history`)."""
+        """One world's spin state for the list ``lw`` (with history: its listed springs packed in
+        the list's order, its terrain springs per ball and shape; see :mod:`..broadphase.history`)."""
         n, R = self.n, spin.w.shape[2]
         cap, E = lw.nbr.shape[1], lw.escapes.shape[0]
         history = spin.kt > 0.0
-        cols = cap + self.shapes if history else 1
-        rows = n if history else 1
+        rows, cols = (n, self.shapes) if history else (1, 1)
         sp = spin._replace(
             w=np.zeros((1, n, R)),
             alpha=np.zeros((1, n, R)),
             inv_inertia=np.array(spin.inv_inertia),  # (permuted with the storage)
             w0=np.zeros((1, 1, R)),
             sw=np.zeros((1, 1, R)),
-            hist=np.zeros((1, rows, cols, 3)),
-            stamp=np.full((1, rows, cols), -1, dtype=np.int64),
+            hist=np.zeros((1, rows, max(cols, 1), 3)),
+            stamp=np.full((1, rows, max(cols, 1)), -1, dtype=np.int64),
             clock=np.zeros(1, dtype=np.int64),  # (the World's counter is handed in at each call)
         )
         K = self.PER_ESCAPE if history else 1
         over = sp._replace(hist=np.zeros((1, E, K, 3)), stamp=np.full((1, E, K), -1, dtype=np.int64))
         rounds = [s for s in range(table.count) if table.flags[s] & DIRECT]
         carry = self.CARRY_PER_BALL[self.d] * n if history else 1
-        lh = new_list_history(n, self.shapes if history else 0, E, K, carry, rounds)
+        block = SPIN_ROWS * SPIN_BLOCK
+        threads = lw.moved.shape[0]
+        lh = new_list_history(n, cap if history else 0, cols, E, K, carry, rounds, threads, block)
         return sp, over, lh
 
     def _new(self, cap: int) -> Any:
@@ -107,10 +109,8 @@ class NeighbourLists:
                 assert self.spin is not None
                 sp.inv_inertia[:] = self.spin.inv_inertia
                 if sp.kt > 0.0:
-                    cap = lw.nbr.shape[1]
-                    terrain = np.s_[0, :, cap:]
-                    sp.hist[terrain][lw.perm] = sp.hist[terrain].copy()
-                    sp.stamp[terrain][lw.perm] = sp.stamp[terrain].copy()
+                    sp.hist[0][lw.perm] = sp.hist[0].copy()
+                    sp.stamp[0][lw.perm] = sp.stamp[0].copy()
             lw.perm[:] = np.arange(self.n)
             lw.state[0] = 0
             model.radii[:] = self.radii
@@ -201,15 +201,11 @@ class NeighbourLists:
         return True
 
     def _widen_springs(self, b: int, lw: Any, grown: Any) -> None:
-        """A grown list: its Spin's springs as wide, the terrain's carried over (the list's own wait,
-        saved, for the rebuild that fills the grown list); the escaped balls' tables as many."""
+        """A grown list: its packed springs as many (the old ones wait, saved, for the rebuild that
+        fills the grown list)."""
         sp, over, lh = self.spins[b]
         if sp.kt > 0.0:
-            cap, new = lw.nbr.shape[1], grown.nbr.shape[1]
-            hist = np.zeros((1, self.n, new + self.shapes, 3))
-            stamp = np.full((1, self.n, new + self.shapes), -1, dtype=np.int64)
-            hist[:, :, new:], stamp[:, :, new:] = sp.hist[:, :, cap:], sp.stamp[:, :, cap:]
-            sp = sp._replace(hist=hist, stamp=stamp)
+            lh = lh._replace(pair_springs=np.zeros((self.n * grown.nbr.shape[1], 3)))
         self.spins[b] = (sp, over, lh)
 
     def _serial_entry(self, args: tuple) -> Any:
@@ -225,29 +221,33 @@ class NeighbourLists:
         state["_entry"] = None  # compiled code: found again (cached) on first use after unpickling
         return state
 
-    def _live(self, b: int) -> tuple[np.ndarray, np.ndarray]:
-        """World b's live springs (written in its last step): a mask of its Spin's slots (the list's
-        columns of listed pairs only) and one of the escaped balls' tables."""
+    def _live(self, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """World b's live springs: of its listed pairs (a mask of ``pair_springs``: not zero), of
+        the terrain (a mask of its Spin's: written in the last step), of the escaped balls' tables
+        (likewise)."""
         assert self.spin is not None
-        sp, over, _ = self.spins[b]
-        lw, c = self.worlds[b][0], self.spin.clock[b]
-        cap = lw.nbr.shape[1]
-        live = sp.stamp[0] == c
-        live[:, :cap] &= np.arange(cap)[None, :] < lw.count[:, None]
-        return live, over.stamp[0] == c
+        sp, over, lh = self.spins[b]
+        c = self.spin.clock[b]
+        listed = np.zeros(len(lh.pair_springs), dtype=bool)
+        listed[: lh.pair_first[-1]] = np.any(lh.pair_springs[: lh.pair_first[-1]] != 0.0, axis=1)
+        return listed, sp.stamp[0] == c, over.stamp[0] == c
 
     def live_springs(self, b: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """World b's live tangential springs in the user's ball order, as the scalar path keeps them:
         ``(pairs, xi, shapes, xi_shapes)``, pairs ``(k, 2)`` ball indices i < j with their springs
         from i's side (the scalar path's ``hist[b, i, j]``), sorted; shapes ``(k', 2)`` (ball, shape
-        row) with theirs (``hist[b, i, n + s]``)."""
+        row) with theirs (``hist[b, i, n + s]``). A listed spring that is zero is a new contact's
+        (not listed here)."""
         sp, over, lh = self.spins[b]
         lw = self.worlds[b][0]
-        live, escaped = self._live(b)
-        cap, perm = lw.nbr.shape[1], lw.perm
-        rows, cols = np.nonzero(live[:, :cap])
+        listed, terrain, escaped = self._live(b)
+        perm, cnt = lw.perm, lw.count
+        rows = np.repeat(np.arange(self.n), cnt)
+        cols = np.arange(lh.pair_first[-1]) - lh.pair_first[rows]
+        keep = listed[: lh.pair_first[-1]]
+        rows, cols = rows[keep], cols[keep]
         i, j = perm[rows], perm[lw.nbr[rows, cols]]
-        xi = sp.hist[0, rows, cols]
+        xi = lh.pair_springs[: lh.pair_first[-1]][keep]
         e, k = np.nonzero(escaped)
         a, p = lw.escapes[e], lh.over_partner[0, e, k]
         lo, hi = np.minimum(a, p), np.maximum(a, p)  # (kept from the lower slot's side)
@@ -256,19 +256,20 @@ class NeighbourLists:
         xi = np.where((i < j)[:, None], xi, -xi)  # (from the lower ball's side)
         pairs = np.stack([np.minimum(i, j), np.maximum(i, j)], axis=1)
         order = np.lexsort((pairs[:, 1], pairs[:, 0]))
-        rows, cols = np.nonzero(live[:, cap:])
+        rows, cols = np.nonzero(terrain)
         shapes = np.stack([perm[rows], cols], axis=1)
         sorder = np.lexsort((shapes[:, 1], shapes[:, 0]))
-        return pairs[order], xi[order], shapes[sorder], sp.hist[0, rows, cap + cols][sorder]
+        return pairs[order], xi[order], shapes[sorder], sp.hist[0, rows, cols][sorder]
 
     def spring_energy(self) -> np.ndarray:
         """Per world, the tangential springs' energy: 1/2 kt xi^2 summed over the live springs of
         the list, the terrain and the escaped balls' tables."""
         out = np.zeros(len(self.worlds))
-        for b, (sp, over, _) in enumerate(self.spins):
+        for b, (sp, over, lh) in enumerate(self.spins):
             if sp.kt > 0.0:
-                live, escaped = self._live(b)
-                xi2 = np.einsum("ij,ijk,ijk->", live, sp.hist[0], sp.hist[0])
+                listed, terrain, escaped = self._live(b)
+                xi2 = np.einsum("i,ik,ik->", listed, lh.pair_springs, lh.pair_springs)
+                xi2 += np.einsum("ij,ijk,ijk->", terrain, sp.hist[0], sp.hist[0])
                 out[b] = 0.5 * sp.kt * (xi2 + np.einsum("ij,ijk,ijk->", escaped, over.hist[0], over.hist[0]))
         return out
 
@@ -295,5 +296,4 @@ class NeighbourLists:
         """World b's live tangential springs (0 without history)."""
         if not self.spins or not self.spins[b][0].kt > 0.0:
             return 0
-        live, escaped = self._live(b)
-        return int(live.sum() + escaped.sum())
+        return int(sum(mask.sum() for mask in self._live(b)))
