@@ -223,7 +223,7 @@ class Runner:
         per_world = isinstance(model.ks, np.ndarray)  # (then a lanes scratch has parameter rows too)
         motors = model.motors.ball.shape[0] if per_world else None
         self.lane_scratch = _lanes.new_lane_scratch(thread_count(), n, d, motors) if path == "lanes" else None
-        self.lists = NeighbourLists(model, B, n, d, thread_count()) if path == "neighbour_list" else None
+        self.lists = NeighbourLists(model, B, n, d, thread_count(), spin) if path == "neighbour_list" else None
         if path == "lanes":
             sym = integrator == "symplectic_euler"
             # (no grid: the lanes test every pair, and the diagnostics compile no grid code)
