@@ -285,7 +285,7 @@ class PenaltyBallsScene(RandomizedScene, SandScene, TerrainScene, StartScene):
         self._all = np.arange(B, dtype=np.int64)
         self._chunks = self._split(self._all)
         self._velocity_zeros = np.zeros((B, n, d))
-        self._ids = np.zeros((_runner.thread_count(), B), dtype=np.int64)  # per thread: the worlds it steps
+        self._ids = np.zeros((_runner.buffer_threads(), B), dtype=np.int64)  # per thread: the worlds it steps
         # with grains: the sand's height map around the ball; the settled bed (made once per
         # configuration, see ``settled_bed``)
         self.heightmap = (
