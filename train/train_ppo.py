@@ -65,8 +65,8 @@ SETTINGS: dict[str, Any] = dict(
     seed=0,
     env_kwargs={},
     normalize=True,
-    threads=_tuned.TUNED["PenaltyBalls-v0"]["threads"],  # torch threads
-    numba_threads=None,  # None: Numba's own default (every core)
+    threads=_tuned.TUNED["PenaltyBalls-v0"]["threads"],  # torch threads (1: see threads_note)
+    numba_threads=None,  # physics threads; None: Numba's own default (every core)
     tensorboard=None,
     init_from=None,  # a run folder whose policy and normalisation this run starts from (init_from())
     progress=True,  # a progress bar when standard output is a terminal
@@ -228,7 +228,13 @@ _TUNABLE = (
     ("log_std_init", float, "initial log standard deviation of the actions (--init-from copies the earlier run's)"),
     ("net_arch", str, "hidden layer sizes, comma separated"),
     ("eval_freq", int, "env steps between held-out evaluations"),
-    ("threads", int, "torch threads"),
+    (
+        "threads",
+        int,
+        "torch threads: 1 keeps a run fast on a machine shared with other jobs or runs; more are at best "
+        "a few percent faster on an idle machine, many times slower on a busy one, and give other numbers "
+        "(a seed's result depends on torch's thread count)",
+    ),
 )
 
 
@@ -313,7 +319,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--numba-threads",
         type=int,
         default=None,
-        help="Numba threads of the physics (default: Numba's own, every core)",
+        help="threads of the physics (default: Numba's own, every core; a part no thread has started runs on "
+        "the main thread, so they cost nothing on a shared machine; the result does not depend on them)",
     )
     return p
 
@@ -412,11 +419,20 @@ def train(
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecNormalize
 
+    from penalty_env.physics.stepping import runner
+
     torch.set_num_threads(max(1, s["threads"]))
+    physics_threads = None
     if s["numba_threads"] is not None:
         import numba
 
-        numba.set_num_threads(min(s["numba_threads"], numba.config.NUMBA_NUM_THREADS))
+        physics_threads = min(s["numba_threads"], numba.config.NUMBA_NUM_THREADS)
+        numba.set_num_threads(physics_threads)
+    runner.set_thread_count(physics_threads)  # (the env's batches, and the large worlds' parallel regions)
+    threads = machine_threads(s["threads"])
+    note = threads_note(threads)
+    if note:
+        print(note, file=sys.stderr, flush=True)
     env_id: str = s["env_id"]
     seed: int = s["seed"]
     env_kwargs: dict[str, Any] = s["env_kwargs"]
@@ -526,6 +542,7 @@ def train(
         "normalize": s["normalize"],
         "stagger": s["stagger"],
         "init_from": s["init_from"],
+        "threads": threads,
         "curve": curve,
     }
     if stage is not None:
@@ -550,6 +567,42 @@ def train(
         f"mean return {trained['mean_return']:.2f} (random {rand['mean_return']:.2f}); results in {out}"
     )
     return summary
+
+
+def machine_threads(torch_threads: int) -> dict[str, Any]:
+    """The run's threads and the machine it started on (summary.json's ``threads``): torch's, the
+    physics' (``runner.thread_count``), the CPUs this process may use and the 1-minute load
+    average at the start."""
+    import os
+
+    from penalty_env.physics.stepping import runner
+
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        cpus = os.cpu_count() or 1
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
+    return {"torch": torch_threads, "physics": runner.thread_count(), "cpus": cpus, "load_at_start": round(load, 2)}
+
+
+def threads_note(threads: Mapping[str, Any]) -> str | None:
+    """A warning when torch runs on several threads where they will wait for each other: other
+    jobs on the machine (a load average of at least 0.5 at the start) or fewer CPUs than threads.
+
+    Each torch operation waits for all its threads (OpenMP). When another process holds a core,
+    the waiting threads spin (OpenMP's default) while the one they wait for is not running, until
+    the scheduler runs it: measured on 2 cores beside two busy loops, 83% of the run's CPU samples
+    spin in libgomp, and 131,072 steps took 40 to 226 s at 2 threads against 4 to 11 s at 1
+    (docs/training.md, "On a shared machine"). Letting them sleep instead
+    (``OMP_WAIT_POLICY=PASSIVE``) made the idle run 45% slower. None when there is nothing to say."""
+    torch_threads, cpus, load = threads["torch"], threads["cpus"], threads["load_at_start"]
+    if torch_threads <= 1 or (load < 0.5 and torch_threads <= cpus):
+        return None
+    return (
+        f"note: torch on {torch_threads} threads, with a load average of {load:.1f} on {cpus} CPUs: on a machine "
+        "shared with other jobs, each torch call waits for all its threads and the run can take 10 to 50 times "
+        "as long; --threads 1 (the default) does not wait"
+    )
 
 
 INIT_STATS_COUNT = 10_000  # init_from: the earlier run's normalisation statistics weigh as this many samples

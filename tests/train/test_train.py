@@ -37,6 +37,8 @@ SMOKE = [
     8,
     "--final-episodes",
     16,
+    "--numba-threads",
+    1,
 ]
 
 
@@ -80,6 +82,9 @@ def test_training_smoke_run_saves_reloads_and_evaluates(smoke_run, tmp_path):
     assert summary["train_time_s"] <= summary["wall_time_s"] and min(split.values()) >= 0
     assert split["env_step_s"] + split["policy_and_rollout_s"] + split["update_s"] <= summary["train_time_s"] + 0.05
     assert text.count("[eval]") == 2 and "%|" not in text  # no bar off a terminal
+    # torch on one thread by default; --numba-threads limits the env's physics too
+    assert summary["threads"]["torch"] == 1 and summary["threads"]["physics"] == 1
+    assert summary["threads"]["cpus"] >= 1 and summary["threads"]["load_at_start"] >= 0
     video = tmp_path / "eval.gif"
     text = _run([EVALUATE, out, "--episodes", 10, "--n-envs", 5, "--video", video], timeout=300)
     assert "success" in text and "random policy" in text
@@ -157,6 +162,45 @@ def _train_module():
     import train_ppo as T
 
     return T
+
+
+def test_torch_threads_default_to_one_and_a_note_says_when_more_would_wait():
+    """Every id trains torch on one thread unless told (several wait on each other on a shared
+    machine: docs/training.md); asked for more on a loaded machine, or for more than its CPUs, the
+    run says so."""
+    T = _train_module()
+    import _tuned
+
+    assert T.SETTINGS["threads"] == 1 and all(s["threads"] == 1 for s in _tuned.TUNED.values())
+    assert T.check_settings({"env_id": "PenaltyBalls-v1"})["threads"] == 1
+    assert T.threads_note({"torch": 1, "cpus": 2, "load_at_start": 9.0}) is None
+    assert T.threads_note({"torch": 2, "cpus": 2, "load_at_start": 0.1}) is None
+    for busy in ({"torch": 2, "cpus": 2, "load_at_start": 3.0}, {"torch": 2, "cpus": 1, "load_at_start": 0.0}):
+        note = T.threads_note(busy)
+        assert note is not None and "--threads 1" in note
+
+
+def test_the_physics_thread_count_does_not_change_a_training_run(tmp_path):
+    """The same seed trains the same policy, bit for bit, with the env's physics on one thread or
+    split over two (the runner steps each world serially within its part)."""
+    T = _train_module()
+    import torch
+    from stable_baselines3 import PPO
+
+    from penalty_env.physics.stepping import runner
+
+    settings = dict(T.SETTINGS, timesteps=4096, n_envs=128, n_steps=16, batch_size=512, eval_freq=4096)
+    settings.update(eval_episodes=4, final_episodes=4, gif=False, quiet=True, progress=False)
+    weights = []
+    for threads in (1, runner.max_threads()):
+        T.train({**settings, "numba_threads": threads}, tmp_path / f"t{threads}")
+        assert runner.thread_count() == threads
+        assert len(runner.split(128, 2 * 9)) == threads  # v0: 2 balls, 9 substeps a step: split when 2
+        model = PPO.load(tmp_path / f"t{threads}" / "model.zip", device="cpu")
+        weights.append([v.clone() for v in model.policy.state_dict().values()])
+    runner.set_thread_count(None)
+    for a, b in zip(*weights):
+        assert torch.equal(a, b)
 
 
 def test_settings_precedence_and_refusals():
