@@ -52,7 +52,7 @@ _V0: dict[str, Any] = dict(
     n_steps=16,
     n_epochs=4,
     net_arch="64,64",
-    threads=1,  # torch: 2 threads wait on each other on a shared machine (train_ppo.threads_note)
+    threads="auto",  # torch: 2 on an idle machine, 1 while other jobs run (train/_threads.py)
     eval_freq=65_536,
     stagger=True,
 )

@@ -48,6 +48,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import _common as C  # noqa: E402
+import _threads  # noqa: E402
 import _tuned  # noqa: E402
 
 # The defaults: PenaltyBalls-v0's tuned settings. Another id's run takes its own (_tuned.TUNED),
@@ -65,7 +66,7 @@ SETTINGS: dict[str, Any] = dict(
     seed=0,
     env_kwargs={},
     normalize=True,
-    threads=_tuned.TUNED["PenaltyBalls-v0"]["threads"],  # torch threads (1: see threads_note)
+    threads=_tuned.TUNED["PenaltyBalls-v0"]["threads"],  # torch threads: "auto" or a count (_threads.py)
     numba_threads=None,  # physics threads; None: Numba's own default (every core)
     tensorboard=None,
     init_from=None,  # a run folder whose policy and normalisation this run starts from (init_from())
@@ -102,7 +103,6 @@ _INTS = {
     "eval_episodes": 1,
     "final_episodes": 1,
     "seed": 0,
-    "threads": 1,
 }
 # float settings: (low, high, low included, high included)
 _FLOATS = {
@@ -158,6 +158,7 @@ def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
             f"setting 'net_arch' must be hidden layer sizes >= 1, comma separated (e.g. '128,128'), got {s['net_arch']!r}"
         )
     s["net_arch"] = str(arch)
+    s["threads"] = _threads.parse(s["threads"])
     nt = s["numba_threads"]
     if nt is not None and (isinstance(nt, bool) or not isinstance(nt, int) or nt < 1):
         raise ValueError(f"setting 'numba_threads' must be None or an integer >= 1, got {nt!r}")
@@ -230,10 +231,10 @@ _TUNABLE = (
     ("eval_freq", int, "env steps between held-out evaluations"),
     (
         "threads",
-        int,
-        "torch threads: 1 keeps a run fast on a machine shared with other jobs or runs; more are at best "
-        "a few percent faster on an idle machine, many times slower on a busy one, and give other numbers "
-        "(a seed's result depends on torch's thread count)",
+        str,
+        "torch threads: auto (2 while nothing else runs on the machine, 1 while something does, looked at "
+        "before every update), or a count; a count gives the same result for a seed on any load, auto on an "
+        "idle machine equals 2; torch's thread count changes the numbers (docs/training.md)",
     ),
 )
 
@@ -414,14 +415,12 @@ def train(
     (the sweep reports them to Ray Tune). ``stage``: the summary of a curriculum's first stage
     that this run starts from (:func:`run`), recorded in this run's summary."""
     s = check_settings(settings)
-    import torch
     from _callbacks import HeldOutEval, Progress, TimedPPO, TimedVecEnv, TrainClock, show_progress
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecNormalize
 
     from penalty_env.physics.stepping import runner
 
-    torch.set_num_threads(max(1, s["threads"]))
     physics_threads = None
     if s["numba_threads"] is not None:
         import numba
@@ -429,10 +428,12 @@ def train(
         physics_threads = min(s["numba_threads"], numba.config.NUMBA_NUM_THREADS)
         numba.set_num_threads(physics_threads)
     runner.set_thread_count(physics_threads)  # (the env's batches, and the large worlds' parallel regions)
-    threads = machine_threads(s["threads"])
-    note = threads_note(threads)
+    threads = machine_threads()
+    note = _threads.note(s["threads"], threads["cpus"], threads["load_at_start"])
     if note:
         print(note, file=sys.stderr, flush=True)
+    torch_threads = _threads.TorchThreads(s["threads"])
+    torch_threads.start()
     env_id: str = s["env_id"]
     seed: int = s["seed"]
     env_kwargs: dict[str, Any] = s["env_kwargs"]
@@ -484,6 +485,7 @@ def train(
         device="cpu",
         verbose=0,
     )
+    model.before_update = torch_threads.before_update
     if s["init_from"] is not None:
         init_from(model, vecnorm, Path(s["init_from"]))
     start = f", from {s['init_from']}" if s["init_from"] else ""
@@ -542,7 +544,7 @@ def train(
         "normalize": s["normalize"],
         "stagger": s["stagger"],
         "init_from": s["init_from"],
-        "threads": threads,
+        "threads": {**torch_threads.record(), **threads},
         "curve": curve,
     }
     if stage is not None:
@@ -569,40 +571,15 @@ def train(
     return summary
 
 
-def machine_threads(torch_threads: int) -> dict[str, Any]:
-    """The run's threads and the machine it started on (summary.json's ``threads``): torch's, the
-    physics' (``runner.thread_count``), the CPUs this process may use and the 1-minute load
-    average at the start."""
+def machine_threads() -> dict[str, Any]:
+    """The run's physics threads (``runner.thread_count``) and the machine it started on: the CPUs
+    this process may use and the 1-minute load average (summary.json's ``threads``, with torch's)."""
     import os
 
     from penalty_env.physics.stepping import runner
 
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        cpus = os.cpu_count() or 1
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
-    return {"torch": torch_threads, "physics": runner.thread_count(), "cpus": cpus, "load_at_start": round(load, 2)}
-
-
-def threads_note(threads: Mapping[str, Any]) -> str | None:
-    """A warning when torch runs on several threads where they will wait for each other: other
-    jobs on the machine (a load average of at least 0.5 at the start) or fewer CPUs than threads.
-
-    Each torch operation waits for all its threads (OpenMP). When another process holds a core,
-    the waiting threads spin (OpenMP's default) while the one they wait for is not running, until
-    the scheduler runs it: measured on 2 cores beside two busy loops, 83% of the run's CPU samples
-    spin in libgomp, and 131,072 steps took 40 to 226 s at 2 threads against 4 to 11 s at 1
-    (docs/training.md, "On a shared machine"). Letting them sleep instead
-    (``OMP_WAIT_POLICY=PASSIVE``) made the idle run 45% slower. None when there is nothing to say."""
-    torch_threads, cpus, load = threads["torch"], threads["cpus"], threads["load_at_start"]
-    if torch_threads <= 1 or (load < 0.5 and torch_threads <= cpus):
-        return None
-    return (
-        f"note: torch on {torch_threads} threads, with a load average of {load:.1f} on {cpus} CPUs: on a machine "
-        "shared with other jobs, each torch call waits for all its threads and the run can take 10 to 50 times "
-        "as long; --threads 1 (the default) does not wait"
-    )
+    return {"physics": runner.thread_count(), "cpus": _threads.cpus(), "load_at_start": round(load, 2)}
 
 
 INIT_STATS_COUNT = 10_000  # init_from: the earlier run's normalisation statistics weigh as this many samples

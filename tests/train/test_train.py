@@ -82,9 +82,10 @@ def test_training_smoke_run_saves_reloads_and_evaluates(smoke_run, tmp_path):
     assert summary["train_time_s"] <= summary["wall_time_s"] and min(split.values()) >= 0
     assert split["env_step_s"] + split["policy_and_rollout_s"] + split["update_s"] <= summary["train_time_s"] + 0.05
     assert text.count("[eval]") == 2 and "%|" not in text  # no bar off a terminal
-    # torch on one thread by default; --numba-threads limits the env's physics too
-    assert summary["threads"]["torch"] == 1 and summary["threads"]["physics"] == 1
-    assert summary["threads"]["cpus"] >= 1 and summary["threads"]["load_at_start"] >= 0
+    # torch's threads chosen by the load (recorded); --numba-threads limits the env's physics too
+    threads = summary["threads"]
+    assert threads["torch_setting"] == "auto" and threads["torch_schedule"][0][0] == 0
+    assert threads["physics"] == 1 and threads["cpus"] >= 1 and threads["load_at_start"] >= 0
     video = tmp_path / "eval.gif"
     text = _run([EVALUATE, out, "--episodes", 10, "--n-envs", 5, "--video", video], timeout=300)
     assert "success" in text and "random policy" in text
@@ -164,20 +165,30 @@ def _train_module():
     return T
 
 
-def test_torch_threads_default_to_one_and_a_note_says_when_more_would_wait():
-    """Every id trains torch on one thread unless told (several wait on each other on a shared
-    machine: docs/training.md); asked for more on a loaded machine, or for more than its CPUs, the
-    run says so."""
+def test_torch_threads_are_auto_unless_told_and_a_note_says_when_a_count_would_wait():
+    """Every tuned id trains with ``--threads auto`` (legacy: 1); a count is taken as given, and a
+    count above 1 on a loaded machine, or above its CPUs, is warned about."""
     T = _train_module()
+    import _threads
     import _tuned
 
-    assert T.SETTINGS["threads"] == 1 and all(s["threads"] == 1 for s in _tuned.TUNED.values())
-    assert T.check_settings({"env_id": "PenaltyBalls-v1"})["threads"] == 1
-    assert T.threads_note({"torch": 1, "cpus": 2, "load_at_start": 9.0}) is None
-    assert T.threads_note({"torch": 2, "cpus": 2, "load_at_start": 0.1}) is None
-    for busy in ({"torch": 2, "cpus": 2, "load_at_start": 3.0}, {"torch": 2, "cpus": 1, "load_at_start": 0.0}):
-        note = T.threads_note(busy)
-        assert note is not None and "--threads 1" in note
+    assert T.SETTINGS["threads"] == "auto" and all(
+        s["threads"] == "auto"
+        for i, s in _tuned.TUNED.items()
+        if "Level" not in i  # (train_level.py's: 1)
+    )
+    assert _tuned.LEGACY["threads"] == 1
+    assert T.check_settings({"env_id": "PenaltyBalls-v1"})["threads"] == "auto"
+    args = T.build_parser().parse_args(["--threads", "2"])
+    assert T.check_settings(T.settings_from_args(args))["threads"] == 2
+    for bad in ("0", "two", 0, 1.5):
+        with pytest.raises(ValueError, match="'threads' must be 'auto' or an integer >= 1"):
+            T.check_settings({"threads": bad})
+    assert _threads.note("auto", 2, 9.0) is None and _threads.note(1, 2, 9.0) is None
+    assert _threads.note(2, 2, 0.1) is None
+    for n_cpus, load in ((2, 3.0), (1, 0.0)):
+        text = _threads.note(2, n_cpus, load)
+        assert text is not None and "--threads auto" in text
 
 
 def test_the_physics_thread_count_does_not_change_a_training_run(tmp_path):
