@@ -56,10 +56,11 @@ def repository() -> Path:
 
 
 def load_now() -> dict[str, float]:
-    """The 1-minute load average and the runnable tasks right now (``/proc/loadavg``, Linux)."""
+    """The 1-minute load average and the other runnable tasks right now (``/proc/loadavg``, Linux:
+    the runnable tasks less this one, which reads it)."""
     out = {"load1": round(os.getloadavg()[0], 2)}
     try:
-        out["runnable"] = float(Path("/proc/loadavg").read_text().split()[3].split("/")[0])
+        out["runnable"] = float(Path("/proc/loadavg").read_text().split()[3].split("/")[0]) - 1.0
     except (OSError, IndexError, ValueError):
         pass
     return out
@@ -137,7 +138,7 @@ def measure(args: argparse.Namespace) -> list[dict[str, Any]]:
             used = ", ".join(torch_threads(t) for t in found[situation]["threads"])
             print(
                 f"round {r} {situation:5s}: {times} s of training, torch threads {used} (load {load['load1']:.2f}, "
-                f"{load.get('runnable', float('nan')):.0f} runnable at the start)",
+                f"{load.get('runnable', float('nan')):.0f} other tasks runnable at the start)",
                 flush=True,
             )
         rounds.append(found)
