@@ -468,23 +468,24 @@ def train(
     )
     hidden = [int(h) for h in s["net_arch"].split(",") if h.strip()]
     lr0 = s["learning_rate"]
-    model = TimedPPO(
-        policy,
-        venv,
-        n_steps=s["n_steps"],
-        batch_size=s["batch_size"],
-        n_epochs=s["n_epochs"],
-        learning_rate=lambda frac: lr0 * frac,
-        gamma=s["gamma"],
-        gae_lambda=s["gae_lambda"],
-        ent_coef=s["ent_coef"],
-        clip_range=s["clip_range"],
-        policy_kwargs=dict(net_arch=dict(pi=hidden, vf=hidden), log_std_init=s["log_std_init"]),
-        tensorboard_log=str(s["tensorboard"]) if s["tensorboard"] else None,
-        seed=seed,
-        device="cpu",
-        verbose=0,
-    )
+    with torch_threads.building():  # (the initial weights depend on torch's threads: _threads.py)
+        model = TimedPPO(
+            policy,
+            venv,
+            n_steps=s["n_steps"],
+            batch_size=s["batch_size"],
+            n_epochs=s["n_epochs"],
+            learning_rate=lambda frac: lr0 * frac,
+            gamma=s["gamma"],
+            gae_lambda=s["gae_lambda"],
+            ent_coef=s["ent_coef"],
+            clip_range=s["clip_range"],
+            policy_kwargs=dict(net_arch=dict(pi=hidden, vf=hidden), log_std_init=s["log_std_init"]),
+            tensorboard_log=str(s["tensorboard"]) if s["tensorboard"] else None,
+            seed=seed,
+            device="cpu",
+            verbose=0,
+        )
     model.before_update = torch_threads.before_update
     if s["init_from"] is not None:
         init_from(model, vecnorm, Path(s["init_from"]))

@@ -28,6 +28,7 @@ def test_auto_takes_two_threads_on_an_idle_machine_and_keeps_them():
     assert calls == [2] and policy.record() == {
         "torch": 2,
         "torch_setting": "auto",
+        "torch_init": 2,
         "torch_schedule": [[0, 2]],
         "others_runnable_at_start": 0.0,
     }
@@ -70,7 +71,7 @@ def test_a_count_is_fixed_whatever_the_load_and_one_cpu_means_one_thread():
     policy.start()
     for _ in range(5):
         policy.before_update()
-    assert calls == [2] and policy.record() == {"torch": 2, "torch_setting": 2}
+    assert calls == [2] and policy.record() == {"torch": 2, "torch_setting": 2, "torch_init": 2}
     policy, calls = _policy([0.0] * (TH.START_SAMPLES + 3), n_cpus=1)
     assert policy.start() == 1
 
@@ -82,3 +83,14 @@ def test_runnable_others_reads_this_machine():
     for bad in ("x", 0, True, -2):
         with pytest.raises(ValueError):
             TH.parse(bad)
+
+
+@pytest.mark.parametrize("requested, run, init", [("auto", 1, 2), (1, 1, 1), (3, 3, 3)])
+def test_the_policy_is_built_on_the_settings_threads_not_the_runs(requested, run, init):
+    """The initial weights depend on torch's threads: ``auto`` builds on 2 whatever it runs on
+    (so it equals ``--threads 2``), a count on itself."""
+    policy, calls = _policy([2.0] * (TH.START_SAMPLES + 2), requested=requested, n_cpus=2)
+    assert policy.start() == run
+    with policy.building():
+        assert calls[-1] == init
+    assert calls[-1] == run and policy.record()["torch_init"] == init

@@ -214,6 +214,27 @@ def test_the_physics_thread_count_does_not_change_a_training_run(tmp_path):
         assert torch.equal(a, b)
 
 
+def test_auto_gives_the_result_of_threads_2_whenever_it_changes_threads(tmp_path, monkeypatch):
+    """Torch's thread count changes only the initial weights (built on 2 threads under ``auto``):
+    a run that steps down to one thread after two updates, as beside another job, trains the same
+    policy bit for bit as ``--threads 2`` throughout. (Measured on torch 2.13's CPU build; if a
+    torch changes that, this test says so.)"""
+    T = _train_module()
+    import _threads
+    import torch
+    from stable_baselines3 import PPO
+
+    feed = iter([0.0] * _threads.START_SAMPLES + [2.0] * 100)
+    monkeypatch.setattr(_threads, "runnable_others", lambda: next(feed))
+    settings = dict(T.SETTINGS, timesteps=8192, n_envs=64, n_steps=16, batch_size=512, eval_freq=8192)
+    settings.update(eval_episodes=4, final_episodes=4, gif=False, quiet=True, progress=False)
+    auto = T.train({**settings, "threads": "auto"}, tmp_path / "auto")
+    assert auto["threads"]["torch"] == [2, 1] and auto["threads"]["torch_init"] == 2
+    T.train({**settings, "threads": 2}, tmp_path / "two")
+    a, b = (PPO.load(tmp_path / name / "model.zip", device="cpu").policy.state_dict() for name in ("auto", "two"))
+    assert all(torch.equal(a[k], b[k]) for k in a)
+
+
 def test_settings_precedence_and_refusals():
     """The command line wins over the id's tuned value, which wins over the defaults; a rollout
     smaller than a minibatch and an unknown id are refused, naming the setting and the value."""
