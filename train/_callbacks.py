@@ -186,10 +186,11 @@ class TimedVecEnv(VecEnvWrapper):
 
 class TimedPPO(PPO):
     """PPO with the time of its rollouts (``rollout_time``, callbacks included) and of its
-    updates (``update_time``) summed."""
+    updates (``update_time``) summed; ``before_update``, when set, is called before each update."""
 
     rollout_time = 0.0
     update_time = 0.0
+    before_update: Callable[[], None] | None = None  # called before each update (torch's threads: _threads.py)
 
     def collect_rollouts(self, *args, **kwargs):
         t = time.perf_counter()
@@ -198,7 +199,12 @@ class TimedPPO(PPO):
         finally:
             self.rollout_time += time.perf_counter() - t
 
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "before_update"]  # (model.zip loads without train/)
+
     def train(self) -> None:
         t = time.perf_counter()
+        if self.before_update is not None:
+            self.before_update()
         super().train()
         self.update_time += time.perf_counter() - t

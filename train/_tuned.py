@@ -52,7 +52,7 @@ _V0: dict[str, Any] = dict(
     n_steps=16,
     n_epochs=4,
     net_arch="64,64",
-    threads=2,
+    threads="auto",  # torch: 2 on an idle machine, 1 while other jobs run (train/_threads.py)
     eval_freq=65_536,
     stagger=True,
 )

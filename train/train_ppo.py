@@ -48,6 +48,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import _common as C  # noqa: E402
+import _threads  # noqa: E402
 import _tuned  # noqa: E402
 
 # The defaults: PenaltyBalls-v0's tuned settings. Another id's run takes its own (_tuned.TUNED),
@@ -65,8 +66,8 @@ SETTINGS: dict[str, Any] = dict(
     seed=0,
     env_kwargs={},
     normalize=True,
-    threads=_tuned.TUNED["PenaltyBalls-v0"]["threads"],  # torch threads
-    numba_threads=None,  # None: Numba's own default (every core)
+    threads=_tuned.TUNED["PenaltyBalls-v0"]["threads"],  # torch threads: "auto" or a count (_threads.py)
+    numba_threads=None,  # physics threads; None: Numba's own default (every core)
     tensorboard=None,
     init_from=None,  # a run folder whose policy and normalisation this run starts from (init_from())
     progress=True,  # a progress bar when standard output is a terminal
@@ -102,7 +103,6 @@ _INTS = {
     "eval_episodes": 1,
     "final_episodes": 1,
     "seed": 0,
-    "threads": 1,
 }
 # float settings: (low, high, low included, high included)
 _FLOATS = {
@@ -158,6 +158,7 @@ def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
             f"setting 'net_arch' must be hidden layer sizes >= 1, comma separated (e.g. '128,128'), got {s['net_arch']!r}"
         )
     s["net_arch"] = str(arch)
+    s["threads"] = _threads.parse(s["threads"])
     nt = s["numba_threads"]
     if nt is not None and (isinstance(nt, bool) or not isinstance(nt, int) or nt < 1):
         raise ValueError(f"setting 'numba_threads' must be None or an integer >= 1, got {nt!r}")
@@ -228,7 +229,13 @@ _TUNABLE = (
     ("log_std_init", float, "initial log standard deviation of the actions (--init-from copies the earlier run's)"),
     ("net_arch", str, "hidden layer sizes, comma separated"),
     ("eval_freq", int, "env steps between held-out evaluations"),
-    ("threads", int, "torch threads"),
+    (
+        "threads",
+        str,
+        "torch threads: auto (2 while nothing else runs on the machine, 1 while something does, looked at "
+        "before every update), or a count; a count gives the same result for a seed on any load, auto on an "
+        "idle machine equals 2; torch's thread count changes the numbers (docs/training.md)",
+    ),
 )
 
 
@@ -313,7 +320,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--numba-threads",
         type=int,
         default=None,
-        help="Numba threads of the physics (default: Numba's own, every core)",
+        help="threads of the physics (default: Numba's own, every core; a part no thread has started runs on "
+        "the main thread, so they cost nothing on a shared machine; the result does not depend on them)",
     )
     return p
 
@@ -407,16 +415,25 @@ def train(
     (the sweep reports them to Ray Tune). ``stage``: the summary of a curriculum's first stage
     that this run starts from (:func:`run`), recorded in this run's summary."""
     s = check_settings(settings)
-    import torch
     from _callbacks import HeldOutEval, Progress, TimedPPO, TimedVecEnv, TrainClock, show_progress
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecNormalize
 
-    torch.set_num_threads(max(1, s["threads"]))
+    from penalty_env.physics.stepping import runner
+
+    physics_threads = None
     if s["numba_threads"] is not None:
         import numba
 
-        numba.set_num_threads(min(s["numba_threads"], numba.config.NUMBA_NUM_THREADS))
+        physics_threads = min(s["numba_threads"], numba.config.NUMBA_NUM_THREADS)
+        numba.set_num_threads(physics_threads)
+    runner.set_thread_count(physics_threads)  # (the env's batches, and the large worlds' parallel regions)
+    threads = machine_threads()
+    note = _threads.note(s["threads"], threads["cpus"], threads["load_at_start"])
+    if note:
+        print(note, file=sys.stderr, flush=True)
+    torch_threads = _threads.TorchThreads(s["threads"])
+    torch_threads.start()
     env_id: str = s["env_id"]
     seed: int = s["seed"]
     env_kwargs: dict[str, Any] = s["env_kwargs"]
@@ -451,23 +468,25 @@ def train(
     )
     hidden = [int(h) for h in s["net_arch"].split(",") if h.strip()]
     lr0 = s["learning_rate"]
-    model = TimedPPO(
-        policy,
-        venv,
-        n_steps=s["n_steps"],
-        batch_size=s["batch_size"],
-        n_epochs=s["n_epochs"],
-        learning_rate=lambda frac: lr0 * frac,
-        gamma=s["gamma"],
-        gae_lambda=s["gae_lambda"],
-        ent_coef=s["ent_coef"],
-        clip_range=s["clip_range"],
-        policy_kwargs=dict(net_arch=dict(pi=hidden, vf=hidden), log_std_init=s["log_std_init"]),
-        tensorboard_log=str(s["tensorboard"]) if s["tensorboard"] else None,
-        seed=seed,
-        device="cpu",
-        verbose=0,
-    )
+    with torch_threads.building():  # (the initial weights depend on torch's threads: _threads.py)
+        model = TimedPPO(
+            policy,
+            venv,
+            n_steps=s["n_steps"],
+            batch_size=s["batch_size"],
+            n_epochs=s["n_epochs"],
+            learning_rate=lambda frac: lr0 * frac,
+            gamma=s["gamma"],
+            gae_lambda=s["gae_lambda"],
+            ent_coef=s["ent_coef"],
+            clip_range=s["clip_range"],
+            policy_kwargs=dict(net_arch=dict(pi=hidden, vf=hidden), log_std_init=s["log_std_init"]),
+            tensorboard_log=str(s["tensorboard"]) if s["tensorboard"] else None,
+            seed=seed,
+            device="cpu",
+            verbose=0,
+        )
+    model.before_update = torch_threads.before_update
     if s["init_from"] is not None:
         init_from(model, vecnorm, Path(s["init_from"]))
     start = f", from {s['init_from']}" if s["init_from"] else ""
@@ -526,6 +545,7 @@ def train(
         "normalize": s["normalize"],
         "stagger": s["stagger"],
         "init_from": s["init_from"],
+        "threads": {**torch_threads.record(), **threads},
         "curve": curve,
     }
     if stage is not None:
@@ -550,6 +570,17 @@ def train(
         f"mean return {trained['mean_return']:.2f} (random {rand['mean_return']:.2f}); results in {out}"
     )
     return summary
+
+
+def machine_threads() -> dict[str, Any]:
+    """The run's physics threads (``runner.thread_count``) and the machine it started on: the CPUs
+    this process may use and the 1-minute load average (summary.json's ``threads``, with torch's)."""
+    import os
+
+    from penalty_env.physics.stepping import runner
+
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
+    return {"physics": runner.thread_count(), "cpus": _threads.cpus(), "load_at_start": round(load, 2)}
 
 
 INIT_STATS_COUNT = 10_000  # init_from: the earlier run's normalisation statistics weigh as this many samples

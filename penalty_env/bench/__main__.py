@@ -1,4 +1,4 @@
-"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup,train,randomize,level,views} [options]``."""
+"""``python -m penalty_env.bench {core,env,accuracy,stability,energy,soak,figures,shapes,granular,scale,startup,train,shared,randomize,level,views} [options]``."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ COMMANDS = {
     "scale": "penalty_env.bench.scale",
     "startup": "penalty_env.bench.startup",
     "train": "penalty_env.bench.train",
+    "shared": "penalty_env.bench.shared",
     "randomize": "penalty_env.bench.randomize",
     "level": "penalty_env.bench.level",
     "views": "penalty_env.bench.views",

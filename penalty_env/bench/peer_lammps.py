@@ -21,7 +21,9 @@ on the sliding displacement each contact keeps, a dashpot m_eff gamma_t v_t, so 
 m_eff as for gamma_n, the cap xmu |f_n|, lever arms the radii), the wall the same law in ``fix
 wall/gran/region granular`` form (hooke, damping mass_velocity, tangential linear_history; not
 the wall's classic ``hooke/history``, whose spring this LAMMPS scales by the contact radius, see
-``_contact_styles``), integrated by ``fix nve/sphere`` (I = 2/5 m r^2). ``series_every`` records the
+``_contact_styles``), integrated by ``fix nve/sphere`` (I = 2/5 m r^2). With rolling resistance
+(``mu_r`` > 0) the pairs take that granular form too (``pair_style granular``: gran/hooke/history
+has no rolling model), plus LAMMPS's ``rolling sds`` (``_rolling``). ``series_every`` records the
 centre of mass and the rotational and translational kinetic energies every that many steps
 (``fix ave/time`` into a file).
 """
@@ -164,6 +166,9 @@ def run_lammps(
     mu=0.0,
     omega=None,
     series_every=0,
+    mu_r=0.0,
+    kr=0.0,
+    k_roll=None,
 ) -> LammpsRun:
     """Run ``steps`` steps of LAMMPS from state (x, v) of one 3D world of balls of one mass in a Bowl,
     timed in ``blocks`` consecutive runs (as the World's settled pile is); ``final_state`` also
@@ -173,7 +178,10 @@ def run_lammps(
     / speed; gamma_t = kd_t / m_eff), ``mu`` the Coulomb coefficient; any of them makes the balls
     turn (gran/hooke/history, the wall's granular form of it, nve/sphere), from angular velocities
     ``omega`` (zero by default). ``series_every`` > 0 samples the centre of mass and the rotational
-    and translational kinetic energies every that many steps (``LammpsRun.series``)."""
+    and translational kinetic energies every that many steps (``LammpsRun.series``).
+
+    Rolling resistance: ``mu_r`` the World's coefficient, ``kr`` its slope (torque per angular
+    speed), ``k_roll`` LAMMPS's rolling spring (default ``kt``); balls of one radius (``_rolling``)."""
     x = np.asarray(x, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     ks, kd, dt, skin, bowl_radius = float(ks), float(kd), float(dt), float(skin), float(bowl_radius)
@@ -181,12 +189,13 @@ def run_lammps(
     radii = np.asarray(radii, dtype=np.float64)
     masses = np.asarray(masses, dtype=np.float64)
     rotating, omega = _checked(x, masses, kd, kt, kd_t, mu, omega)
+    rolling = _rolling(float(mu_r), float(kr), kt if k_roll is None else float(k_roll), radii, rotating)
     c = [float(ck) for ck in bowl_center]
     m = float(masses[0])
     pad = 2.0 * float(radii.max())
     lo = [ck - bowl_radius - pad for ck in c]
     hi = [ck + bowl_radius + pad for ck in c]
-    styles = _contact_styles(rotating, ks, kd, kt, kd_t, mu, m)
+    styles = _contact_styles(rotating, ks, kd, kt, kd_t, mu, m, rolling)
     per_block = -(-int(steps) // blocks)
     script = _script(c, bowl_radius, styles, gravity, skin, dt, steps, per_block, blocks, series_every, final_state)
     res, final, series = _execute(
@@ -224,10 +233,46 @@ def _checked(x, masses, kd, kt, kd_t, mu, omega):
     return rotating, omega
 
 
-def _contact_styles(rotating, ks, kd, kt, kd_t, mu, m):
+def _rolling(mu_r, kr, k_roll, radii, rotating):
+    """LAMMPS's ``rolling sds`` terms of the pairs and of the wall for the World's rolling resistance
+    (None without it): ``(k_roll, gamma_roll, mu_r)`` each.
+
+    Ours is model A regularised: a torque against the rolling angular velocity w_r of
+    min(kr |w_r|, mu_r R* |f_n|). LAMMPS's sds rolls a displacement with the rolling velocity
+    v_r = R* (w_i - w_j) x n and applies F_r = -k_roll xi_r - gamma_roll v_r, capped at mu_roll
+    |F_n|, as the torque R* n x F_r: so mu_roll = mu_r gives the same cap, and gamma_roll = kr / R*^2
+    the same viscous torque kr |w_r| below it (R* = r / 2 between equal balls, r at the wall). What
+    remains: LAMMPS's spring k_roll, which ours has not (k_roll = 0 is refused by LAMMPS's slider:
+    it divides by it at the cap), and a wall's R*, which LAMMPS takes with the region's curvature
+    (inside a bowl slightly above r; ours r)."""
+    if mu_r <= 0.0:
+        return None
+    if not rotating or kr <= 0.0 or k_roll <= 0.0:
+        raise ValueError(f"mu_r > 0 needs friction (kt > 0), kr > 0 and k_roll > 0, got kr={kr}, k_roll={k_roll}")
+    if not np.all(radii == radii[0]):
+        raise ValueError("mu_r > 0 needs balls of one radius: gamma_roll = kr / R*^2 is one number per type pair")
+    r = float(radii[0])
+    return (k_roll, kr / (0.5 * r) ** 2, mu_r), (k_roll, kr / r**2, mu_r)
+
+
+def _contact_styles(rotating, ks, kd, kt, kd_t, mu, m, rolling=None):
     """LAMMPS's pair style, wall style and integrator for the contact law, frictionless or with
-    friction (the balls turn)."""
+    friction (the balls turn), and with rolling resistance (``rolling``, from :func:`_rolling`)."""
     # Kn Kt gamma_n gamma_t xmu dampflag; m_eff = m / 2 between two balls, m at the wall
+    if rolling is not None:
+        xt = kd_t / kd if kd_t > 0.0 else 0.0
+
+        def law(gamma_n: float, roll: tuple) -> str:
+            return (
+                f"hooke {ks!r} {gamma_n!r} damping mass_velocity tangential linear_history {kt!r} {xt!r} {mu!r} "
+                f"rolling sds {roll[0]!r} {roll[1]!r} {roll[2]!r}"
+            )
+
+        return (
+            f"granular\npair_coeff * * {law(kd / (m / 2.0), rolling[0])}",
+            f"granular {law(kd / m, rolling[1])}",
+            "nve/sphere",
+        )
     if rotating:
         damp = 1 if kd_t > 0.0 else 0
         pair = f"gran/hooke/history {ks!r} {kt!r} {kd / (m / 2.0)!r} {kd_t / (m / 2.0)!r} {mu!r} {damp}"
@@ -265,7 +310,7 @@ comm_modify vel yes
 read_data state.data
 region bowl sphere {c[0]!r} {c[1]!r} {c[2]!r} {bowl_radius!r} side in
 pair_style {pair}
-pair_coeff * *
+{"" if "pair_coeff" in pair else "pair_coeff * *"}
 fix wall all wall/gran/region {wall} region bowl
 fix grav all gravity {gmag!r} vector {gdir[0]!r} {gdir[1]!r} {gdir[2]!r}
 fix int all {integrate}

@@ -12,7 +12,12 @@ Prints, writes (``docs/scale.csv``) and plots (``docs/scale.png``, log-log):
       the path ``stepping="auto"`` picks and on the other paths that apply (target: 256 x 500
       within 1.5x of the 100,000-ball world's cost per particle-substep);
   (4) the 100,000-ball world of the core's own section (b) (slumped from its lattice for 6 s
-      simulated, still sloshing): ours against LAMMPS, the "about 3x" figure, to tie (1) to it.
+      simulated, still sloshing): ours against LAMMPS, the "about 3x" figure, to tie (1) to it;
+  (5) where the time of a settled world's step goes;
+  (6) "history + rolling": the settled 100,000-ball bed (the largest N up to it) with friction, the
+      tangential springs with history and rolling resistance, the balls spinning
+      (``scale_spin``): ours on 1 and 2 threads against LAMMPS's ``pair_style granular`` on one
+      (its granular style has no OPENMP variant): the per-core ratio (``--spin-only``: this alone).
 The settled states are cached (``--cache-dir``, default ``~/.cache/penalty_env/scale``), keyed by N;
 the first run settles them (the 10^6 one takes a few minutes).
 """
@@ -54,6 +59,7 @@ from .scale_measure import (  # noqa: F401
     time_blocks,
 )
 from .scale_profile import listed_world, phase_profile, profile_run  # noqa: F401
+from .scale_spin import SPIN, measure_spin, spin_bed
 
 SIZES = (1_000, 10_000, 100_000, 1_000_000)
 BATCHES = ((64, 2000), (256, 500), (1024, 100), (256, 2000))
@@ -143,6 +149,8 @@ def _parser() -> argparse.ArgumentParser:
         help="only the profiled workload (for callgrind): the settled N-ball bed, 1 + STEPS steps",
     )
     ap.add_argument("--rebuild", action="store_true", help="with --profile-run: rebuild the list every step")
+    ap.add_argument("--spin-only", action="store_true", help="only (6), the history + rolling bed, with LAMMPS")
+    ap.add_argument("--no-spin", action="store_true", help="skip (6)")
     return ap
 
 
@@ -312,6 +320,30 @@ def _profile_section(s: _Settings, rows: list[Row]) -> None:
     rows.append(prow)
 
 
+def _spin_section(s: _Settings, peer: Lammps | None, rows: list[Row]) -> None:
+    """(6): the settled bed with history and rolling resistance, ours against LAMMPS; appends to
+    ``rows``."""
+    n = max(m for m in s.sizes if m <= 100_000)
+    print(
+        f"(6) history + rolling: the settled {n:,}-ball bed with mu = {SPIN['mu']:g}, the tangential springs with "
+        f"history, rolling resistance mu_r = {SPIN['mu_r']:g}, spinning; {s.rounds} interleaved round(s) of [ours "
+        f"on {s.threads} threads, LAMMPS pair granular on 1]"
+    )
+    bed = spin_bed(n, s.cache, verbose=True)
+    got = measure_spin(bed, s.threads, s.work, BLOCKS, s.rounds, peer)
+    rows += got
+    lmp = [r for r in got if r.code == "lammps" and r.rates]
+    for r in got:
+        line = f"    {r.code:>11}, {r.threads} thr: {r.best / 1e6:7.3f} M/s (median {r.median / 1e6:6.3f}), {r.ns:6.1f} ns/particle-step"
+        if r.code == "penalty_env":
+            line += f", list every {r.steps_per_build:6.1f} steps, {r.note.split(';')[-1]}"
+            if lmp:
+                line += f" | ours / LAMMPS 1 thread: best {r.best / lmp[0].best:5.2f}x, median {r.median / lmp[0].median:5.2f}x"
+        elif r.note.startswith("failed"):
+            line += f" {r.note}"
+        print(line, flush=True)
+
+
 def main(argv: list[str] | None = None) -> None:
     args = _parser().parse_args(argv)
     if args.profile_run:
@@ -320,6 +352,11 @@ def main(argv: list[str] | None = None) -> None:
     s = _settings(args)
     peer = _peer(args.no_lammps, s.cache)
     rows: list[Row] = []
+    if args.spin_only:
+        _spin_section(s, peer, rows)
+        write_csv(rows, s.out / "scale_spin.csv")
+        print(f"wrote {s.out / 'scale_spin.csv'}")
+        return
     beds = _single_section(s, peer, rows)
     _flatness_section(rows, s.threads, beds[s.sizes[-1]])
     del beds
@@ -327,6 +364,8 @@ def main(argv: list[str] | None = None) -> None:
     if not args.no_core_b and not s.quick:
         _core_b_section(peer, s.threads, rows)
     _profile_section(s, rows)
+    if not args.no_spin:
+        _spin_section(s, peer, rows)
     write_csv(rows, s.out / "scale.csv")
     plot(rows, s.out / "scale.png")
     print(f"wrote {s.out / 'scale.csv'} and {s.out / 'scale.png'}")

@@ -151,13 +151,15 @@ def new_spin(
     mu_r: float,
     kr: float,
     dt: float,
+    pair_store: bool = True,
 ) -> Spin:
     """The buffers of a rotating scene: B worlds of n balls, ``slots`` terrain history slots per
-    ball (history storage only when ``kt > 0``). ``rotation=False``: the tangential spring on balls
-    that do not spin (1 / I = 0: the torque turns nothing)."""
+    ball (history storage only when ``kt > 0`` and ``pair_store``: the scalar path's, one slot per
+    ball pair; the neighbour-list path keeps its springs per list slot instead). ``rotation=False``:
+    the tangential spring on balls that do not spin (1 / I = 0: the torque turns nothing)."""
     R = 3 if d == 3 else 1
     inertia = inertia_factor(d) * masses * radii * radii
-    hist_shape = (B, n, n + slots) if kt > 0.0 else (1, 1, 1)
+    hist_shape = (B, n, n + slots) if kt > 0.0 and pair_store else (1, 1, 1)
     return Spin(
         kt=float(kt),
         kd_t=float(kd_t),

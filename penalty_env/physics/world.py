@@ -28,6 +28,7 @@ from .stepping.common import STATUS_CG, STATUS_NONFINITE
 from .stepping.integrators import INTEGRATORS, allocate_work
 from .stepping.lanes import LANES_MAX_BALLS, LANES_MIN_WORLDS
 from .stepping.large import LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN
+from .stepping.large_spin import LARGE_SPIN_MIN_BALLS
 from .stepping.runner import PATHS, Runner
 from .world_checks import Motor, ball_arrays, gravity_vector, motor_arrays, state_arrays, terrain_tuple
 from .world_parameters import ParameterAccess, per_world_model
@@ -43,6 +44,7 @@ __all__ = [
     "LANES_MAX_BALLS",
     "LANES_MIN_WORLDS",
     "LARGE_WORLD_MIN_BALLS",
+    "LARGE_SPIN_MIN_BALLS",
     "NEIGHBOUR_SKIN",
     "STABILITY_SAFETY",
     "DAMPING_MODES",
@@ -56,9 +58,8 @@ BROADPHASES = ("all_pairs", "grid", "auto")
 STEPPING = ("auto",) + PATHS
 _EULERS = ("symplectic_euler", "explicit_euler")
 MAX_STEPS_PER_CALL = 2**62  # ``step(n)``: the kernels count steps in int64
-# the tangential springs' history is stored per ball pair and per ball and shape: refuse a scene
-# whose store would exceed this (the neighbour list, which would store it per listed pair, refuses
-# rotation for now)
+# the scalar path stores the tangential springs' history per ball pair and per ball and shape:
+# refuse a scene whose store would exceed this (the neighbour list stores them per listed pair)
 MAX_HISTORY_BYTES = 2 * 2**30
 
 
@@ -272,10 +273,10 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
             raise ValueError(
                 "per_world=True steps on the scalar and lanes paths only: use stepping='scalar', 'lanes' or 'auto'"
             )
-        if self._spinning and stepping in ("lanes", "neighbour_list"):
+        if self._spinning and stepping == "lanes":
             raise ValueError(
-                f"stepping={stepping!r} does not support rotation=True or tangential='history' yet: use "
-                "stepping='scalar' or 'auto'"
+                "stepping='lanes' does not support rotation=True or tangential='history' yet: use "
+                "stepping='scalar', 'neighbour_list' or 'auto'"
             )
         if motors and (self.events or stepping == "neighbour_list"):
             raise ValueError(
@@ -283,10 +284,13 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
                 "'auto' and events=False"
             )
         if stepping == "auto":
-            if self.events or self._spinning:
+            if self.events:
                 return "scalar"
-            if n >= LARGE_WORLD_MIN_BALLS and self.use_grid and euler and not motors and not self.per_world:
+            large = LARGE_SPIN_MIN_BALLS if self._spinning else LARGE_WORLD_MIN_BALLS
+            if n >= large and self.use_grid and euler and not motors and not self.per_world:
                 return "neighbour_list"
+            if self._spinning:
+                return "scalar"
             if not self.use_grid and euler and n <= LANES_MAX_BALLS and B >= LANES_MIN_WORLDS:
                 return "lanes"
             return "scalar"
@@ -312,7 +316,8 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
         if not self._spinning:
             return None
         slots = len(self.terrain)
-        need = B * n * (n + slots) * 32 if self._history else 0
+        pair_store = self.stepping != "neighbour_list"  # (the list keeps its springs per list slot)
+        need = B * n * (n + slots) * 32 if self._history and pair_store else 0
         if need > MAX_HISTORY_BYTES:
             raise ValueError(
                 f"tangential='history' stores a spring per ball pair and per ball and shape: {B} worlds of {n} "
@@ -332,6 +337,7 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
             mu_r=self.mu_r,
             kr=self.kr,
             dt=self.dt,
+            pair_store=pair_store,
         )
         if self.per_world:  # per world: each world's inertia and rolling-resistance slope
             kr: Any = np.full(B, spin.kr)

@@ -224,7 +224,9 @@ class StateAccess:
             if self.rotation:
                 inertia = np.broadcast_to(1.0 / sp.inv_inertia, sp.w.shape[:2])  # ((n,) or per world (B, n))
                 self._scalar += 0.5 * np.einsum("bnk,bnk,bn->b", sp.w, sp.w, inertia)
-            if sp.kt > 0.0:
+            if sp.kt > 0.0 and self._runner.lists is not None:  # (the list keeps them per list slot)
+                self._scalar += self._runner.lists.spring_energy()
+            elif sp.kt > 0.0:
                 live = sp.stamp == sp.clock[:, None, None]
                 self._scalar += 0.5 * sp.kt * np.einsum("bij,bijk,bijk->b", live, sp.hist, sp.hist)
         return self._per_world(self._scalar)

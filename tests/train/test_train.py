@@ -37,6 +37,8 @@ SMOKE = [
     8,
     "--final-episodes",
     16,
+    "--numba-threads",
+    1,
 ]
 
 
@@ -80,6 +82,10 @@ def test_training_smoke_run_saves_reloads_and_evaluates(smoke_run, tmp_path):
     assert summary["train_time_s"] <= summary["wall_time_s"] and min(split.values()) >= 0
     assert split["env_step_s"] + split["policy_and_rollout_s"] + split["update_s"] <= summary["train_time_s"] + 0.05
     assert text.count("[eval]") == 2 and "%|" not in text  # no bar off a terminal
+    # torch's threads chosen by the load (recorded); --numba-threads limits the env's physics too
+    threads = summary["threads"]
+    assert threads["torch_setting"] == "auto" and threads["torch_schedule"][0][0] == 0
+    assert threads["physics"] == 1 and threads["cpus"] >= 1 and threads["load_at_start"] >= 0
     video = tmp_path / "eval.gif"
     text = _run([EVALUATE, out, "--episodes", 10, "--n-envs", 5, "--video", video], timeout=300)
     assert "success" in text and "random policy" in text
@@ -157,6 +163,76 @@ def _train_module():
     import train_ppo as T
 
     return T
+
+
+def test_torch_threads_are_auto_unless_told_and_a_note_says_when_a_count_would_wait():
+    """Every tuned id trains with ``--threads auto`` (legacy: 1); a count is taken as given, and a
+    count above 1 on a loaded machine, or above its CPUs, is warned about."""
+    T = _train_module()
+    import _threads
+    import _tuned
+
+    assert T.SETTINGS["threads"] == "auto" and all(
+        s["threads"] == "auto"
+        for i, s in _tuned.TUNED.items()
+        if "Level" not in i  # (train_level.py's: 1)
+    )
+    assert _tuned.LEGACY["threads"] == 1
+    assert T.check_settings({"env_id": "PenaltyBalls-v1"})["threads"] == "auto"
+    args = T.build_parser().parse_args(["--threads", "2"])
+    assert T.check_settings(T.settings_from_args(args))["threads"] == 2
+    for bad in ("0", "two", 0, 1.5):
+        with pytest.raises(ValueError, match="'threads' must be 'auto' or an integer >= 1"):
+            T.check_settings({"threads": bad})
+    assert _threads.note("auto", 2, 9.0) is None and _threads.note(1, 2, 9.0) is None
+    assert _threads.note(2, 2, 0.1) is None
+    for n_cpus, load in ((2, 3.0), (1, 0.0)):
+        text = _threads.note(2, n_cpus, load)
+        assert text is not None and "--threads auto" in text
+
+
+def test_the_physics_thread_count_does_not_change_a_training_run(tmp_path):
+    """The same seed trains the same policy, bit for bit, with the env's physics on one thread or
+    split over two (the runner steps each world serially within its part)."""
+    T = _train_module()
+    import torch
+    from stable_baselines3 import PPO
+
+    from penalty_env.physics.stepping import runner
+
+    settings = dict(T.SETTINGS, timesteps=4096, n_envs=128, n_steps=16, batch_size=512, eval_freq=4096)
+    settings.update(eval_episodes=4, final_episodes=4, gif=False, quiet=True, progress=False)
+    weights = []
+    for threads in (1, runner.max_threads()):
+        T.train({**settings, "numba_threads": threads}, tmp_path / f"t{threads}")
+        assert runner.thread_count() == threads
+        assert len(runner.split(128, 2 * 9)) == threads  # v0: 2 balls, 9 substeps a step: split when 2
+        model = PPO.load(tmp_path / f"t{threads}" / "model.zip", device="cpu")
+        weights.append([v.clone() for v in model.policy.state_dict().values()])
+    runner.set_thread_count(None)
+    for a, b in zip(*weights):
+        assert torch.equal(a, b)
+
+
+def test_auto_gives_the_result_of_threads_2_whenever_it_changes_threads(tmp_path, monkeypatch):
+    """Torch's thread count changes only the initial weights (built on 2 threads under ``auto``):
+    a run that steps down to one thread after two updates, as beside another job, trains the same
+    policy bit for bit as ``--threads 2`` throughout. (Measured on torch 2.13's CPU build; if a
+    torch changes that, this test says so.)"""
+    T = _train_module()
+    import _threads
+    import torch
+    from stable_baselines3 import PPO
+
+    feed = iter([0.0] * _threads.START_SAMPLES + [2.0] * 100)
+    monkeypatch.setattr(_threads, "runnable_others", lambda: next(feed))
+    settings = dict(T.SETTINGS, timesteps=8192, n_envs=64, n_steps=16, batch_size=512, eval_freq=8192)
+    settings.update(eval_episodes=4, final_episodes=4, gif=False, quiet=True, progress=False)
+    auto = T.train({**settings, "threads": "auto"}, tmp_path / "auto")
+    assert auto["threads"]["torch"] == [2, 1] and auto["threads"]["torch_init"] == 2
+    T.train({**settings, "threads": 2}, tmp_path / "two")
+    a, b = (PPO.load(tmp_path / name / "model.zip", device="cpu").policy.state_dict() for name in ("auto", "two"))
+    assert all(torch.equal(a[k], b[k]) for k in a)
 
 
 def test_settings_precedence_and_refusals():

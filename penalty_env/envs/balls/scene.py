@@ -298,7 +298,7 @@ class PenaltyBallsScene:
         self._all = np.arange(B, dtype=np.int64)
         self._chunks = self._split(self._all)
         self._velocity_zeros = np.zeros((B, n, d))
-        self._ids = np.zeros((runner_module.thread_count(), B), dtype=np.int64)  # per thread: the worlds it steps
+        self._ids = np.zeros((runner_module.buffer_threads(), B), dtype=np.int64)  # per thread: the worlds it steps
         # with grains: the sand's height map around the ball (its floor: the terrain's height)
         self.heightmap = (
             None

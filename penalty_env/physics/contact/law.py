@@ -67,28 +67,24 @@ def regularised_ratio(slope, mu, fn, speed2):
     relative motion u of squared size ``speed2`` (0 when at rest). Friction: u the sliding
     velocity, ``slope`` kf; rolling resistance: u the rolling angular velocity, ``slope`` kr and
     ``mu`` mu_r R*."""
-    if not speed2 > 0.0:  # (a branch LLVM turns into a select in the SIMD loops)
-        return 0.0
     speed = math.sqrt(speed2)
-    return min(slope * speed, mu * abs(fn)) / speed
+    ratio = min(slope * speed, mu * abs(fn)) / speed
+    return ratio if speed2 > 0.0 else 0.0  # (a select: at rest 0, the ratio's 0 / 0 unused)
 
 
 @njit(hot=True)
 def turn_into_plane(x0, x1, x2, n0, n1, n2):
     """A continuing contact's spring displacement turned into the current tangent plane (normal
-    n), its length kept."""
+    n), its length kept (a new contact's zero spring stays zero)."""
     old = x0 * x0 + x1 * x1 + x2 * x2
     xn = x0 * n0 + x1 * n1 + x2 * n2
     x0 -= xn * n0
     x1 -= xn * n1
     x2 -= xn * n2
     new = x0 * x0 + x1 * x1 + x2 * x2
-    if new > 0.0:
-        scale = math.sqrt(old / new)
-        x0 *= scale
-        x1 *= scale
-        x2 *= scale
-    return x0, x1, x2
+    scale = math.sqrt(old / new)
+    turned = new > 0.0  # (selects: along n, or zero, the spring is left as it is)
+    return (x0 * scale if turned else x0), (x1 * scale if turned else x1), (x2 * scale if turned else x2)
 
 
 @njit(hot=True)
@@ -104,15 +100,23 @@ def history_spring(x0, x1, x2, s0, s1, s2, fn, kt, kd_t, mu, dt):
     f1 = -kt * x1 - kd_t * s1
     f2 = -kt * x2 - kd_t * s2
     f2n = f0 * f0 + f1 * f1 + f2 * f2
-    if f2n > cap * cap:  # sliding: the force at the cap, the spring at what the cap allows
-        scale = cap / math.sqrt(f2n)
-        f0 *= scale
-        f1 *= scale
-        f2 *= scale
-        x0 = -(f0 + kd_t * s0) / kt
-        x1 = -(f1 + kd_t * s1) / kt
-        x2 = -(f2 + kd_t * s2) / kt
-    return f0, f1, f2, x0, x1, x2
+    # sliding: the force at the cap, the spring at what the cap allows (selects: both are computed)
+    sliding = f2n > cap * cap
+    scale = cap / math.sqrt(f2n)
+    g0 = f0 * scale
+    g1 = f1 * scale
+    g2 = f2 * scale
+    y0 = -(g0 + kd_t * s0) / kt
+    y1 = -(g1 + kd_t * s1) / kt
+    y2 = -(g2 + kd_t * s2) / kt
+    return (
+        g0 if sliding else f0,
+        g1 if sliding else f1,
+        g2 if sliding else f2,
+        y0 if sliding else x0,
+        y1 if sliding else x1,
+        y2 if sliding else x2,
+    )
 
 
 @njit(hot=True)

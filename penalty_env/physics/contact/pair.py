@@ -16,7 +16,7 @@ import math
 from ..._jit import njit
 from .law import normal_force, regularised_ratio
 
-__all__ = ["pair_geometry", "pair_force", "pair_overlap", "pair_jacobian"]
+__all__ = ["pair_geometry", "pair_normal", "pair_force", "pair_overlap", "pair_jacobian"]
 
 
 @njit(hot=True)
@@ -33,11 +33,21 @@ def pair_geometry(b, i, j, x, model, D):
         dist2 += d2 * d2
     if not dist2 < l0 * l0:
         return False, 0.0, 0.0, 0.0, 0.0
+    overlap, n0, n1, n2 = pair_normal(d0, d1, d2, dist2, l0, D)
+    return True, overlap, n0, n1, n2
+
+
+@njit(hot=True)
+def pair_normal(d0, d1, d2, dist2, l0, D):
+    """(overlap, n0, n1, n2) of two touching balls whose centres are d apart (|d|^2 = dist2, rest
+    length l0): l0 - |d| and the unit normal d / |d| (the last axis for coincident centres)."""
     dist = math.sqrt(dist2)
-    if dist > 0.0:
-        inv = 1.0 / dist
-        return True, l0 - dist, d0 * inv, d1 * inv, d2 * inv
-    return True, l0 - dist, 0.0, (1.0 if D == 2 else 0.0), (1.0 if D == 3 else 0.0)
+    inv = 1.0 / dist
+    apart = dist > 0.0  # (selects, so the spinning block pass vectorises it)
+    n0 = d0 * inv if apart else 0.0
+    n1 = d1 * inv if apart else (1.0 if D == 2 else 0.0)
+    n2 = d2 * inv if apart else (1.0 if D == 3 else 0.0)
+    return l0 - dist, n0, n1, n2
 
 
 @njit(hot=True)
