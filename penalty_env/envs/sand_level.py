@@ -1,6 +1,6 @@
 """PenaltySandLevel: shape a heaped bed of grains to a target surface with a kinematic blade.
 
-:class:`.level_scene.SandLevelScene` holds B worlds of the task over one batched physics ``World``; the single env
+:class:`.level.scene.SandLevelScene` holds B worlds of the task over one batched physics ``World``; the single env
 (:class:`PenaltySandLevelEnv`, B = 1) and the native vector env (:class:`PenaltySandLevelVectorEnv`)
 both drive it, so they produce the same episodes. The grains are the penalty core's balls (spring,
 dashpot, Coulomb friction at the contact point, rolling resistance); the floor and the four walls

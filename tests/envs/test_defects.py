@@ -136,6 +136,7 @@ def _lowest_gymnasium() -> str:
     return re.search(r">=\s*([\d.]+)", req).group(1)
 
 
+@pytest.mark.slow  # (20 s from a cold cache: .ci/run runs it beside the default run)
 def test_the_lowest_declared_gymnasium_runs_the_envs(tmp_path):
     """Gymnasium at the lowest version pyproject.toml allows (installed alone into a folder put
     first on the path) makes, checks and steps a single and a vector env of each task. (1.0
