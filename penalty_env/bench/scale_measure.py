@@ -359,7 +359,7 @@ def measure_memory(bed: Bed) -> dict:
     rss1 = _rss_bytes()
     w.step(2)
     rss2 = _rss_bytes()
-    lists = w._runner.lists
+    lists = w.runner.lists
     list_bytes = array_bytes(lists) if lists is not None else 0
     total = array_bytes(w)
     n = bed.n

@@ -32,7 +32,7 @@ def listed_world(bed: Bed) -> tuple[World, Any, Any, Any]:
     the one world's list state and Model. Raises when the World does not step the list path."""
     w = bed.world()
     w.step(2)
-    lists = w._runner.lists
+    lists = w.runner.lists
     if lists is None:
         raise ValueError(f"{bed.n} balls: this World steps {w.stepping!r}, not the neighbour-list path")
     lw, sm = lists.worlds[0]
@@ -52,7 +52,7 @@ def phase_profile(bed: Bed, steps: int = 20, reps: int = 5) -> dict:
     slabs = int(grid.dims[0, 2])
     scratch = np.zeros_like(lw.a)
     fargs = (slabs, layer, grid.start[0], lw.x, lw.v, scratch, lw.nbr, lw.count, lw.near, sm)
-    g = w._runner.g
+    g = w.runner.g
     saved = numba.get_num_threads()
     t_step = t_force = t_build = math.inf
     numba.set_num_threads(1)
@@ -92,7 +92,7 @@ def profile_run(n: int, steps: int, rebuild: bool = False, cache_dir: Path | Non
     difference). Run it twice under callgrind with two step counts and difference the counts."""
     w = settled_bed(n, cache_dir).world()
     w.step(1)
-    lists = w._runner.lists
+    lists = w.runner.lists
     for _ in range(steps):
         if rebuild and lists is not None:
             lists.reset()

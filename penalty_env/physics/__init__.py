@@ -14,8 +14,8 @@ Layout (each folder one concern; an import never points up this table):
 ``stepping/``            the integrators, the stepping paths (scalar, lanes, events, large worlds)
                          and the runner that owns the threads
 ``model``                the kernels' data: ``Model``, ``State``, ``Control``, ``Spin``
-``world``                the public ``World`` (with ``world_checks``, ``world_state``,
-                         ``world_terrain``, and the stability ``guard``)
+``world/``               the public ``World`` and its parts (checks, the stability guard, the
+                         state, terrain and parameter views)
 ``diagnostics``          energy and penetration
 ``theory``, ``configure`` closed forms and stability limits; tolerance-driven configuration
 =======================  ===========================================================================

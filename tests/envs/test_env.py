@@ -19,7 +19,7 @@ from gymnasium.error import ResetNeeded
 import penalty_env  # noqa: F401  (registers the ids)
 from penalty_env.envs import PARAMETERS, PenaltyBallsEnv
 from penalty_env.envs.scripted import ScriptedPusher
-from penalty_env.physics.guard import EnergyDriftWarning
+from penalty_env.physics.world import EnergyDriftWarning
 
 IDS = ("PenaltyBalls-v0", "PenaltyBalls2D-v0")
 DIM = {"PenaltyBalls-v0": 3, "PenaltyBalls2D-v0": 2}

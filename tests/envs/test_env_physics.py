@@ -16,7 +16,7 @@ import pytest
 from penalty_env.envs.balls.scene import PARAMETERS, PenaltyBallsScene
 from penalty_env.physics import configure as CF
 from penalty_env.physics import theory
-from penalty_env.physics.guard import EnergyDriftWarning
+from penalty_env.physics.world import EnergyDriftWarning
 from penalty_env.scenarios import pair_collision
 
 

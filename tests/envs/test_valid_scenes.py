@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 import penalty_env  # noqa: F401
 from penalty_env.envs.balls.params import INT_PARAMETERS, PARAMETERS
-from penalty_env.physics.guard import EnergyDriftWarning
+from penalty_env.physics.world import EnergyDriftWarning
 
 # the sand keywords (grains > 0 changes what "rests on the terrain" means): test_sand.py's own property test
 SKIP = ("render_width", "render_height", "grains", "grain_radius", "grain_mass")

@@ -178,13 +178,13 @@ def test_equal_radii_skip_the_partner_radius_and_change_no_bit(d, contact_kwargs
     same, general = (
         World(x, radii, masses, v, terrain=bowl, broadphase="grid", allow_unstable=True, **kw) for _ in range(2)
     )
-    lists = general._runner.lists
-    assert same._runner.lists.worlds[0][1].diameter == 2.0 * radii[0]
+    lists = general.runner.lists
+    assert same.runner.lists.worlds[0][1].diameter == 2.0 * radii[0]
     lists.worlds[0] = (lists.worlds[0][0], lists.worlds[0][1]._replace(diameter=0.0))
     _step_alike(same, general, 15)
     mixed = radii * np.where(np.arange(n) % 2 == 0, 1.0, 0.9)
     poly = World(x, mixed, masses, v, terrain=bowl, broadphase="grid", allow_unstable=True, **kw)
-    assert poly._runner.lists.worlds[0][1].diameter == 0.0
+    assert poly.runner.lists.worlds[0][1].diameter == 0.0
 
 
 @pytest.mark.parametrize("d", [2, 3])
@@ -202,12 +202,12 @@ def test_the_block_buffer_stride_changes_no_bit(d, contact_kwargs):
         usual, wide = (
             World(x, r, masses, v, terrain=bowl, broadphase="grid", allow_unstable=True, **kw) for _ in range(2)
         )
-        lists = wide._runner.lists
+        lists = wide.runner.lists
         lists.worlds[0] = (lists._new(PAIR_BLOCK + 37), lists.worlds[0][1])  # a list as wide as that
         lists.reset()
         _step_alike(usual, wide, 12)
-        assert usual._runner.lists.worlds[0][0].pairs.shape[2] == PAIR_BLOCK
-        assert wide._runner.lists.worlds[0][0].pairs.shape[2] == PAIR_BLOCK + 37
+        assert usual.runner.lists.worlds[0][0].pairs.shape[2] == PAIR_BLOCK
+        assert wide.runner.lists.worlds[0][0].pairs.shape[2] == PAIR_BLOCK + 37
 
 
 def test_a_ball_listed_far_from_the_terrain_still_bounces_off_it_after_escaping(contact_kwargs):
@@ -318,7 +318,7 @@ def test_a_single_large_world_steps_serially_when_numba_runs_one_thread(monkeypa
     monkeypatch.setattr(runner, "SERIAL_MAX_BALLS", 0)
     x, radii, masses, bowl = _pile(LARGE_WORLD_MIN_BALLS + 50, 3, seed=4)
     w = World(x, radii, masses, terrain=bowl, ks=1e4, kd=50.0, dt=1e-3, broadphase="grid", stepping="neighbour_list")
-    lists = w._runner.lists
+    lists = w.runner.lists
     seen = []
     original = lists.step
 

@@ -49,7 +49,7 @@ def _assert_alike(lst: World, ref: World) -> None:
 def _scalar_springs(w: World):
     """The scalar path's live pair springs (i < j, from i's side), as ``live_springs`` lists them
     (without an exactly zero one: the list keeps none, a zero spring being a new contact's)."""
-    sp = w._spin
+    sp = w.spin
     n = w.n_balls
     live = (sp.stamp[0, :, :n] == sp.clock[0]) & np.any(sp.hist[0, :, :n] != 0.0, axis=-1)
     i, j = np.nonzero(live)
@@ -73,15 +73,15 @@ def test_a_spinning_pile_on_the_list_path_matches_the_scalar_path_through_rebuil
         ref.step(10)
         stats = lst.neighbour_list_stats()
         escaped, springs = max(escaped, stats["escaped"]), max(springs, stats["springs"])
-        over = lst._runner.lists.spins[0][1]  # the escaped balls' tables
-        tabled = max(tabled, int(np.sum(over.stamp == lst._spin.clock[0])))
+        over = lst.runner.lists.spins[0][1]  # the escaped balls' tables
+        tabled = max(tabled, int(np.sum(over.stamp == lst.spin.clock[0])))
         _assert_alike(lst, ref)
         assert lst.energy() == pytest.approx(ref.energy(), rel=1e-12)
     assert stats["builds"] > 10, "the list must have been rebuilt (and the storage re-sorted) many times"
     assert escaped > 0, "some balls must have escaped their list"
     assert tabled > 0, "an escaped ball must have met balls its list did not pair it with"
     assert springs > n, "the pile must hold many springs"
-    pairs, xi, _, _ = lst._runner.lists.live_springs()
+    pairs, xi, _, _ = lst.runner.lists.live_springs()
     ref_pairs, ref_xi = _scalar_springs(ref)
     np.testing.assert_array_equal(pairs, ref_pairs)  # the same contacts live
     np.testing.assert_allclose(xi, ref_xi, rtol=0, atol=1e-12 + 1e-6 * np.abs(ref_xi).max())
@@ -102,11 +102,11 @@ def test_a_rebuild_and_re_sort_carry_every_spring_bit_for_bit():
     for w in (one, other):
         w.step(1)
     assert other.neighbour_list_stats()["builds"] == builds + 1
-    mine, theirs = one._runner.lists.live_springs(), other._runner.lists.live_springs()
+    mine, theirs = one.runner.lists.live_springs(), other.runner.lists.live_springs()
     assert len(mine[0]) > n // 2 and len(mine[2]) > 10  # pairs' springs and the bowl's
     for a, b in zip(mine, theirs, strict=True):
         np.testing.assert_array_equal(a, b)
-    assert not np.array_equal(one._runner.lists.worlds[0][0].perm, other._runner.lists.worlds[0][0].perm)
+    assert not np.array_equal(one.runner.lists.worlds[0][0].perm, other.runner.lists.worlds[0][0].perm)
 
 
 def test_stacked_pucks_on_an_incline_hold_at_their_springs_stretch_through_forced_rebuilds():
@@ -193,7 +193,7 @@ def test_a_large_spinning_world_steps_the_same_bits_parallel_over_its_balls_and_
         for chunk in (100, 1, 99):
             w.step(chunk)
         assert w.neighbour_list_stats()["builds"] > 5
-        out.append((w.positions.copy(), w.angular_velocities.copy(), w._runner.lists.live_springs()[1]))
+        out.append((w.positions.copy(), w.angular_velocities.copy(), w.runner.lists.live_springs()[1]))
     for a, b in zip(*out, strict=True):
         np.testing.assert_array_equal(a, b)
 
@@ -208,10 +208,10 @@ def test_short_tables_grow_and_change_nothing(monkeypatch):
     monkeypatch.setattr(neighbour_lists.NeighbourLists, "PER_ESCAPE", 0)
     monkeypatch.setattr(neighbour_lists.NeighbourLists, "CARRY_PER_BALL", {2: 0, 3: 0})
     short = World(pos, np.full(n, 0.5), np.ones(n), v, broadphase="grid", **SPIN, **kw)
-    first = short._runner.lists.spins[0]
+    first = short.runner.lists.spins[0]
     for w in (usual, short):
         w.step(200)
-    grown = short._runner.lists.spins[0]
+    grown = short.runner.lists.spins[0]
     assert grown[1].hist.shape[2] > first[1].hist.shape[2] and grown[2].carry_partner.size > first[2].carry_partner.size
     np.testing.assert_array_equal(short.positions, usual.positions)
     np.testing.assert_array_equal(short.angular_velocities, usual.angular_velocities)

@@ -10,7 +10,7 @@ import pytest
 
 from penalty_env.demo import starter_scene
 from penalty_env.physics import Bowl, World
-from penalty_env.physics.guard import EnergyDriftWarning
+from penalty_env.physics.world import EnergyDriftWarning
 
 # --------------------------------------------------------------------------------------------
 # The course's starter scene (docs/physics.md section 1)

@@ -21,7 +21,7 @@ import numpy as np
 from ..._jit import entry_point, njit, python_twin
 from ...physics import theory
 from ...physics.model import inertia_factor
-from ...physics.world_parameters import rolling_defaults
+from ...physics.world.parameters import rolling_defaults
 from ..contact import ContactRule, configure_task, derive, pair_springs, sliding_kf, substeps_for, terrain_springs
 from ..randomize import MAX_SUBSTEPS, Field, RandomizationWarning, check_override, check_ranges, draw
 from ..terrains import TERRAINS
@@ -364,7 +364,7 @@ def derive_worlds(idx, d, rule, grid, zetas, w, rows):
     """Each listed world's physics from its draws (``d``, :class:`Draws`: world ``idx[t]``'s in
     entry t), by :mod:`..contact`'s rule, written into the World's per-world arrays ``w``
     (:class:`WorldArrays`; with ``rule.rolling`` also the World's defaults for kf, the inertia and
-    kr, by :func:`penalty_env.physics.world_parameters.rolling_defaults`) and the scene's ``rows``
+    kr, by :func:`penalty_env.physics.world.parameters.rolling_defaults`) and the scene's ``rows``
     (:class:`TaskRows`)."""
     nb = w.radii.shape[1]
     masses = rows.scratch[0]

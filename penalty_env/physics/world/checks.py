@@ -8,11 +8,11 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .. import _validate as V
-from .geometry.shapes import Shape
-from .model import Motors, no_motors
+from ... import _validate as V
+from ..geometry.shapes import Shape
+from ..model import Motors, no_motors
 
-__all__ = ["Motor", "state_arrays", "ball_arrays", "terrain_tuple", "gravity_vector", "motor_arrays"]
+__all__ = ["Motor", "state_arrays", "ball_arrays", "terrain_tuple", "gravity_vector", "motor_arrays", "world_index"]
 
 
 class Motor(NamedTuple):
@@ -114,3 +114,15 @@ def motor_arrays(motors: Sequence[Motor], n: int, d: int) -> Motors:
         inv_max_speed=np.array([r[2] for r in rows]),
         axes=np.array([r[3] for r in rows], dtype=np.int64),
     )
+
+
+def world_index(worlds: Any, n_worlds: int) -> Any:
+    """``worlds`` as an int64 index array (each in 0..n_worlds-1), or ``slice(None)`` for None."""
+    if worlds is None:
+        return slice(None)
+    if np.asarray(worlds).dtype.kind not in "iu":
+        raise ValueError(f"worlds must be integer world indices, got dtype {np.asarray(worlds).dtype}")
+    chosen = np.atleast_1d(np.asarray(worlds, dtype=np.int64))
+    if chosen.size and (chosen.min() < 0 or chosen.max() >= n_worlds):
+        raise ValueError(f"worlds must index 0..{n_worlds - 1}, got {worlds!r}")
+    return chosen

@@ -1,19 +1,20 @@
-"""The per-world parameters of a :class:`~.world.World` made with ``per_world=True`` (domain
-randomisation): the model's per-world arrays, :meth:`ParameterAccess.set_parameters` (checked, and
-held to the stability guard world by world) and :meth:`ParameterAccess.parameters`."""
+"""The parameters part of a :class:`~.world.World`: each world's physics parameters read
+(:meth:`Parameters.get`) and, for a World made with ``per_world=True`` (domain randomisation), set
+(:meth:`Parameters.set`: checked, and held to the stability guard world by world); the model's
+per-world arrays; the derived defaults (kf, kr, inertia) shared with the randomised envs' resets."""
 
 from __future__ import annotations
 
-import copy
 from typing import Any
 
 import numpy as np
 
-from .. import _validate as V
-from .._jit import njit, python_twin
-from .model import Model, inertia_factor
+from ... import _validate as V
+from ..._jit import njit, python_twin
+from ..model import Model, inertia_factor
+from .guard import StabilityGuard
 
-__all__ = ["ParameterAccess", "per_world_model", "lightest_pair", "rolling_defaults"]
+__all__ = ["Parameters", "per_world_model", "lightest_pair", "rolling_defaults"]
 
 _SCALARS = ("ks", "kd", "ks_terrain", "kd_terrain", "mu", "kf")
 
@@ -30,38 +31,41 @@ def per_world_model(model: Model, B: int) -> Model:
     return model._replace(**fields)
 
 
-class ParameterAccess:
-    """A World's per-world parameter methods (its ``per_world`` flag, ``_model``, ``_spin``...)."""
+class Parameters:
+    """A World's physics parameters per world.
 
-    per_world: bool
-    allow_unstable: bool
-    use_grid: bool
-    rotation: bool
-    integrator: str
-    dt: float
-    gravity: tuple
-    masses: np.ndarray
-    radii: np.ndarray
-    ks: float
-    kd: float
-    ks_terrain: float
-    kd_terrain: float
-    mu: float
-    kf: float
-    kr: float
-    _kf_default: bool
-    _kr_default: bool
-    _lead: int
-    _model: Model
-    _spin: Any
-    _world_index: Any
-    _all_worlds: np.ndarray
+    Args:
+        model: the scene (its per-world arrays are written in place); ``spin``: the rotation's
+            parameters and buffers, or None.
+        guard: the World's stability guard (its step; :meth:`StabilityGuard.with_scene` for each
+            world's values).
+        per_world: the model holds its parameters per world (else they are read only).
+        allow_unstable: the guard is skipped.
+        grid_cell: the broadphase grid's cell (a radius must fit it), or None without a grid;
+            ``lead``: balls kept out of the grid.
+        kf_default, kr_default: kf and kr were derived (re-derived from each world's masses).
+    """
 
-    def parameters(self, world: int = 0) -> dict[str, Any]:
-        """World ``world``'s physics parameters: ``masses``, ``radii`` (``(n,)`` arrays), ``ks, kd,
-        ks_terrain, kd_terrain, mu, kf`` and the motors' ``max_force`` (``(m,)``); with rotation also
-        ``kr``. The same for every world unless the World was made with ``per_world=True``."""
-        b = int(self._world_index([world])[0])
+    def __init__(
+        self,
+        model: Model,
+        spin: Any,
+        guard: StabilityGuard,
+        per_world: bool,
+        allow_unstable: bool,
+        grid_cell: float | None,
+        lead: int,
+        kf_default: bool,
+        kr_default: bool,
+    ) -> None:
+        self._model, self._spin, self.guard = model, spin, guard
+        self.per_world, self.allow_unstable = per_world, allow_unstable
+        self.grid_cell, self.lead = grid_cell, lead
+        self.kf_default, self.kr_default = kf_default, kr_default
+        self.rotation, self.dt, self.dim = guard.rotation, guard.dt, guard.dim
+
+    def get(self, b: int) -> dict[str, Any]:
+        """World ``b``'s physics parameters (``World.parameters``)."""
         m = self._model
         pw = self.per_world
         out: dict[str, Any] = {
@@ -77,9 +81,9 @@ class ParameterAccess:
             out["kr"] = float(kr[b] if pw else kr)
         return out
 
-    def set_parameters(
+    def set(
         self,
-        worlds: Any = None,
+        idx: np.ndarray,
         *,
         masses: Any = None,
         radii: Any = None,
@@ -114,7 +118,6 @@ class ParameterAccess:
         """
         if not self.per_world:
             raise ValueError("set_parameters needs a World made with per_world=True (its parameters are per world)")
-        idx = self._all_worlds if worlds is None else self._world_index(worlds)
         k = len(idx)
         model, n = self._model, self._model.radii.shape[1]
         q = model.motors.ball.shape[0]
@@ -123,9 +126,9 @@ class ParameterAccess:
             new["inv_mass"] = 1.0 / _rows("masses", masses, k, n, positive=True)
         if radii is not None:
             r = _rows("radii", radii, k, n, positive=True)
-            if self.use_grid:
-                cell = model.cell_size
-                big = r[:, self._lead :].max() if n > self._lead else 0.0
+            if self.grid_cell is not None:
+                cell = self.grid_cell
+                big = r[:, self.lead :].max() if n > self.lead else 0.0
                 if 2.0 * big > cell:
                     raise ValueError(
                         f"radii: a radius of {big:g} does not fit the grid's cells of {cell:g} (made for the "
@@ -140,9 +143,9 @@ class ParameterAccess:
             if q == 0:
                 raise ValueError("max_force: this World has no motors")
             new["max_force"] = _rows("max_force", max_force, k, q, positive=True)
-        self._store_parameters(idx, new, guard)
+        self.store(idx, new, guard)
 
-    def _store_parameters(self, idx: np.ndarray, new: dict[str, np.ndarray], guard: bool = False) -> None:
+    def store(self, idx: np.ndarray, new: dict[str, np.ndarray], guard: bool = False) -> None:
         """:meth:`set_parameters` after its argument checks: ``new`` maps model fields (``inv_mass``,
         ``radii``, the contact scalars, ``max_force``) to float64 arrays of the listed worlds, (k, n),
         (k,) and (k, m), already finite and positive; derives what follows and writes them. For a
@@ -156,7 +159,7 @@ class ParameterAccess:
         masses_now = 1.0 / merged["inv_mass"]
         spin = self._spin
         if spin is not None and self.rotation:  # (the constructor's defaults, world by world)
-            c = inertia_factor(len(self.gravity))
+            c = inertia_factor(self.dim)
             inv_inertia = np.empty_like(merged["radii"])
             scratch = np.zeros((2, inv_inertia.shape[1]))
             defaults = python_twin(rolling_defaults)
@@ -167,13 +170,13 @@ class ParameterAccess:
                 ]
             ).reshape(len(idx), 2)
             merged["inv_inertia"] = inv_inertia
-            merged["kr"] = spin.kr[idx] if not self._kr_default else kf_kr[:, 1]
-            if self._kf_default and not kf_given:
+            merged["kr"] = spin.kr[idx] if not self.kr_default else kf_kr[:, 1]
+            if self.kf_default and not kf_given:
                 merged["kf"] = kf_kr[:, 0]
-        elif self._kf_default and not kf_given:
+        elif self.kf_default and not kf_given:
             merged["kf"] = _lightest(masses_now) / self.dt
         if guard and not self.allow_unstable:
-            self._guard_worlds(idx, merged)
+            self.guard_worlds(idx, merged)
         for name, value in merged.items():
             if name == "max_force":
                 model.motors.max_force[idx] = value
@@ -185,35 +188,28 @@ class ParameterAccess:
     def stability_limit_for(
         self, masses: Any, radii: Any, ks: float, kd: float, ks_terrain: float, kd_terrain: float
     ) -> float:
-        """The guard's stability limit (:meth:`stability_limit`) of this World's scene with these
-        masses, radii and contact parameters (the World is left as it is): for a caller that checks
-        parameters before it sets them (a randomised environment, its ranges' corners)."""
-        view = copy.copy(self)
-        view.masses, view.radii = np.asarray(masses, dtype=np.float64), np.asarray(radii, dtype=np.float64)
-        view.ks, view.kd, view.ks_terrain, view.kd_terrain = float(ks), float(kd), float(ks_terrain), float(kd_terrain)
-        return float(view.stability_limit())  # type: ignore[attr-defined]
+        """The guard's stability limit of this scene with these masses, radii and springs."""
+        return float(self.guard.with_scene(masses, radii, ks, kd, ks_terrain, kd_terrain).stability_limit())
 
-    def _guard_worlds(self, idx: np.ndarray, values: dict[str, np.ndarray]) -> None:
+    def guard_worlds(self, idx: np.ndarray, values: dict[str, np.ndarray]) -> None:
         """Refuse values for which some world's step is above its stability limit, or its kf above
         the explicit friction limit."""
         model = self._model
+        dt = self.guard.dt
         for t, b in enumerate(idx.tolist()):
-            view = copy.copy(self)
-            view.masses = 1.0 / values["inv_mass"][t]
-            view.radii = values["radii"][t]
-            for name in ("ks", "kd", "ks_terrain", "kd_terrain"):
-                column = values[name] if name in values else np.asarray(getattr(model, name))[idx]
-                setattr(view, name, float(column[t]))
-            limit = view.stability_limit()  # type: ignore[attr-defined]
-            if self.dt > limit:
-                view.dt_max = limit  # type: ignore[attr-defined]
-                raise ValueError(f"set_parameters, world {b}: {view._stability_message()}")  # type: ignore[attr-defined]
-            kf_max = view._lightest_tangential_mass() / self.dt  # type: ignore[attr-defined]
+            springs = [
+                float((values[name] if name in values else np.asarray(getattr(model, name))[idx])[t])
+                for name in ("ks", "kd", "ks_terrain", "kd_terrain")
+            ]
+            view = self.guard.with_scene(1.0 / values["inv_mass"][t], values["radii"][t], *springs)
+            if dt > view.stability_limit():
+                raise ValueError(f"set_parameters, world {b}: {view.stability_message()}")
+            kf_max = view.lightest_tangential_mass() / dt
             mu = float((values["mu"] if "mu" in values else np.asarray(model.mu)[idx])[t])
             if mu > 0.0 and values["kf"][t] > kf_max * (1.0 + 1e-12):
                 raise ValueError(
                     f"set_parameters, world {b}: kf={values['kf'][t]:g} is above the explicit friction limit "
-                    f"m_eff/dt = {kf_max:g} (dt={self.dt:g}): sliding would overshoot and gain energy"
+                    f"m_eff/dt = {kf_max:g} (dt={dt:g}): sliding would overshoot and gain energy"
                 )
 
 

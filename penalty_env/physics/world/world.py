@@ -1,9 +1,16 @@
 """``World``: B independent worlds of n balls in implicit terrain, stepped in Numba.
 
-The public face of the core: it validates the arguments, builds the scene's :class:`~.model.Model`
-and :class:`~.model.State`, applies the stability guard (:mod:`.guard`), and hands the stepping to
-its :class:`~.stepping.runner.Runner`. Python touches the simulation once per ``step`` call; the
+The public face of the core: it validates the arguments, builds the scene's :class:`~..model.Model`
+and :class:`~..model.State`, applies the stability guard (:mod:`.guard`), and hands the stepping to
+its :class:`~..stepping.runner.Runner`. Python touches the simulation once per ``step`` call; the
 steps themselves, over all worlds, run inside Numba.
+
+A World is composed of its parts, each built from explicit inputs once the model, the state and
+the runner exist: ``guard`` (:class:`.guard.StabilityGuard`: the step limits of its scene),
+``start_check`` (:class:`.guard.StartCheck`), ``state_view`` (:class:`.state.StateView`: views of
+the state, writing it, energy and momenta), ``terrain_view`` (:class:`.terrain.TerrainView`: the
+shapes' poses and heights, distances) and ``params`` (:class:`.parameters.Parameters`: each world's
+physics parameters). The World's public methods are theirs, delegated.
 """
 
 from __future__ import annotations
@@ -15,25 +22,32 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as V
-from .._jit import readonly_paths, restore_readonly
-from . import diagnostics as _diagnostics
-from .broadphase.grid import GRID_MIN_BALLS, new_grid, no_grid
-from .geometry.pack import pack_table, user_addresses
-from .geometry.shapes import Shape
-from .geometry.user import SDF
-from .guard import STABILITY_SAFETY, EnergyDriftWarning, StabilityGuard, StartOverlapWarning
-from .model import TANGENTIAL, Model, Spin, State, new_control, new_spin
-from .stepping.common import STATUS_CG, STATUS_NONFINITE
-from .stepping.integrators import INTEGRATORS, allocate_work
-from .stepping.lanes import LANES_MAX_BALLS, LANES_MIN_WORLDS
-from .stepping.large import LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN
-from .stepping.large_spin import LARGE_SPIN_MIN_BALLS
-from .stepping.runner import PATHS, Runner
-from .world_checks import Motor, ball_arrays, gravity_vector, motor_arrays, state_arrays, terrain_tuple
-from .world_parameters import ParameterAccess, per_world_model
-from .world_state import StateAccess
-from .world_terrain import TerrainAccess
+from ... import _validate as V
+from ..._jit import readonly_paths, restore_readonly
+from ..broadphase.grid import GRID_MIN_BALLS, new_grid, no_grid
+from ..geometry.pack import pack_table, user_addresses
+from ..geometry.shapes import Shape
+from ..geometry.user import SDF
+from ..model import TANGENTIAL, Model, Spin, State, new_control, new_spin
+from ..stepping.common import STATUS_CG, STATUS_NONFINITE
+from ..stepping.integrators import INTEGRATORS, allocate_work
+from ..stepping.lanes import LANES_MAX_BALLS, LANES_MIN_WORLDS
+from ..stepping.large import LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN
+from ..stepping.large_spin import LARGE_SPIN_MIN_BALLS
+from ..stepping.runner import PATHS, Runner
+from .checks import Motor, ball_arrays, gravity_vector, motor_arrays, state_arrays, terrain_tuple, world_index
+from .guard import (
+    STABILITY_SAFETY,
+    EnergyDriftWarning,
+    StabilityGuard,
+    StartCheck,
+    StartOverlapWarning,
+    lightest_inertia,
+    lightest_tangential_mass,
+)
+from .parameters import Parameters, per_world_model
+from .state import Penetration, StateView
+from .terrain import TerrainView
 
 __all__ = [
     "World",
@@ -63,7 +77,7 @@ MAX_STEPS_PER_CALL = 2**62  # ``step(n)``: the kernels count steps in int64
 MAX_HISTORY_BYTES = 2 * 2**30
 
 
-class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
+class World:
     """Balls (spheres in 3D, circles in 2D) with penalty contacts, in implicit terrain.
 
     Args:
@@ -187,7 +201,7 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
         self.dt = V.positive("dt", dt)
         self.broadphase = V.choice("broadphase", broadphase, BROADPHASES)
         self.allow_unstable = V.flag("allow_unstable", allow_unstable)
-        self.start_check = V.flag("start_check", start_check)
+        self.start_check_enabled = V.flag("start_check", start_check)
         self.events = V.flag("events", events)
         self.rotation = V.flag("rotation", rotation)
         self.tangential = V.choice("tangential", tangential, TANGENTIAL)
@@ -199,14 +213,31 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
         self.use_grid = self.broadphase == "grid" or (self.broadphase == "auto" and n >= GRID_MIN_BALLS)
         lead = V.integer("grid_lead", grid_lead, 0, n - 1, "balls kept out of the grid")
         self.stepping = self._stepping_path(V.choice("stepping", stepping, STEPPING), B, n)
+        self.guard = StabilityGuard(
+            masses=self.masses,
+            radii=self.radii,
+            ks=self.ks,
+            kd=self.kd,
+            ks_terrain=self.ks_terrain,
+            kd_terrain=self.kd_terrain,
+            kt=self.kt,
+            kd_t=self.kd_t,
+            history=self._history,
+            integrator=self.integrator,
+            damping=self.damping,
+            rotation=self.rotation,
+            has_terrain=bool(self.terrain),
+            dim=d,
+            dt=self.dt,
+        )
         self._build(x, v, lead)
-        self.dt_max = self.stability_limit()
+        self.dt_max = self.guard.stability_limit()
         if self.dt > self.dt_max and not self.allow_unstable:
-            raise ValueError(self._stability_message())
-        self._check_start(self._all_worlds)
-        self.dt_energy = self.energy_limit()
+            raise ValueError(self.guard.stability_message())
+        self.start_check(self._all_worlds)
+        self.dt_energy = self.guard.energy_limit()
         if self.dt > self.dt_energy and not self.allow_unstable:
-            warnings.warn(self._energy_message(), EnergyDriftWarning, stacklevel=2)
+            warnings.warn(self.guard.energy_message(), EnergyDriftWarning, stacklevel=2)
 
     # ---------------------------------------------------------------- construction
     def _check_combinations(self) -> None:
@@ -241,12 +272,13 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
         # it brings sliding to rest without overshoot only while kf dt / m_eff <= 1 (at 2 it
         # reverses v_t every step and feeds energy in). The default sits at that limit, which is
         # the closest a regularised law gets to Coulomb's stick at this dt.
-        self.kf_max = self._lightest_tangential_mass() / self.dt
+        d = len(self.gravity)
+        self.kf_max = lightest_tangential_mass(self.masses, self.rotation, d) / self.dt
         self.kf = V.positive("kf", self.kf_max if kf is None else kf)
         if self.mu > 0.0 and self.kf > self.kf_max * (1.0 + 1e-12) and not self.allow_unstable:
             raise ValueError(
                 f"kf={self.kf:g} is above the explicit friction limit m_eff/dt = {self.kf_max:g} "
-                f"(lightest contact {'tangential ' if self.rotation else ''}m_eff={self._lightest_tangential_mass():g}, "
+                f"(lightest contact {'tangential ' if self.rotation else ''}m_eff={self.kf_max * self.dt:g}, "
                 f"dt={self.dt:g}): sliding would overshoot and gain energy. Use kf <= {self.kf_max:g}, a smaller dt, "
                 "or allow_unstable=True."
             )
@@ -255,12 +287,12 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
         self.kt = 2.0 / 7.0 * self.ks if kt is None else V.positive("kt", kt)
         self.kd_t = 0.5 * self.kd if kd_t is None else V.non_negative("kd_t", kd_t)
         self._history = self.tangential == "history" and self.mu > 0.0
-        self.kr_max = self._lightest_inertia() / self.dt if self.rotation else math.inf
+        self.kr_max = lightest_inertia(self.masses, self.radii, d) / self.dt if self.rotation else math.inf
         self.kr = (self.kr_max if kr is None else V.positive("kr", kr)) if self.rotation else 0.0
         if self.mu_r > 0.0 and self.kr > self.kr_max * (1.0 + 1e-12) and not self.allow_unstable:
             raise ValueError(
                 f"kr={self.kr:g} is above the explicit rolling-resistance limit I_eff/dt = {self.kr_max:g} "
-                f"(lightest contact I_eff={self._lightest_inertia():g}, dt={self.dt:g}): rolling would overshoot "
+                f"(lightest contact I_eff={self.kr_max * self.dt:g}, dt={self.dt:g}): rolling would overshoot "
                 f"and gain energy. Use kr <= {self.kr_max:g}, a smaller dt, or allow_unstable=True."
             )
 
@@ -375,8 +407,6 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
         self._state = State(x, v)
         self._status = np.zeros(B, dtype=np.int64)
         self._control = new_control(B, n, d, self._motors.ball.shape[0])
-        self._scalar = np.zeros(B)
-        self._deepest = np.zeros(B)
         self._all_worlds = np.arange(B, dtype=np.int64)
         cells = 16 if lead else 4
         self._grid = new_grid(B, n, lead=lead, cells_per_ball=cells) if self.use_grid else no_grid()
@@ -394,6 +424,281 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
             self.gravity,
             spin=self._spin,
         )
+        self._parts(lead, self._kf_default, self._kr_default)
+
+    def _parts(self, lead: int, kf_default: bool, kr_default: bool) -> None:
+        """The World's parts, each built from the model, the state and the runner."""
+        B, d = self.n_worlds, self.dim
+        self.terrain_view = TerrainView(
+            self.terrain, self._rows, self._model.shapes, B, d, self.gravity, self._runner.forget
+        )
+        penetration = Penetration(self._state, self._model, self._runner, self._grid, self.gravity)
+        self.start_check = StartCheck(
+            not self.allow_unstable and self.start_check_enabled,
+            self.guard,
+            self._state.positions,
+            penetration,
+            self.terrain,
+            self._rows,
+            self.terrain_view.evaluate,
+            self._batched,
+        )
+        self.state_view = StateView(
+            self._state,
+            self._spin,
+            self._model,
+            self._runner,
+            self._grid,
+            self._batched,
+            self.gravity,
+            self.rotation,
+            penetration,
+            self.start_check,
+        )
+        cell = self._model.cell_size if self.use_grid else None
+        self.params = Parameters(
+            self._model, self._spin, self.guard, self.per_world, self.allow_unstable, cell, lead, kf_default, kr_default
+        )
+
+    # ---------------------------------------------------------------- sizes and buffers
+    @property
+    def n_worlds(self) -> int:
+        return self._state.positions.shape[0]
+
+    @property
+    def n_balls(self) -> int:
+        return self._state.positions.shape[1]
+
+    @property
+    def dim(self) -> int:
+        return self._state.positions.shape[2]
+
+    @property
+    def model(self) -> Model:
+        """The scene's static description (radii, masses, terrain, every contact parameter)."""
+        return self._model
+
+    @property
+    def spin(self) -> Any:
+        """The rotation's parameters and buffers (:class:`~..model.Spin`: inverse inertias, rolling
+        resistance, tangential history), or None for balls that neither spin nor carry a history."""
+        return self._spin
+
+    @property
+    def state(self) -> State:
+        """The World's own ``(B, n, d)`` position and velocity buffers, always batched. For code
+        that fuses its own per-step work with the core's kernels (the environments do): after
+        writing them directly, call :meth:`invalidate_cache` for the worlds written."""
+        return self._state
+
+    @property
+    def runner(self) -> Any:
+        """The runner that steps this World (its path, buffers and thread pool)."""
+        return self._runner
+
+    @property
+    def event_buffers(self) -> Any:
+        """The event location's buffers and counters (``events.stats(world)`` sums them), or None."""
+        return self._runner.event_buffers
+
+    @property
+    def status(self) -> np.ndarray:
+        """Per world, after the last step: 0 ok, 1 NaN or inf, 2 implicit Euler's solve did not converge."""
+        out = self._status.view()
+        out.flags.writeable = False
+        return out
+
+    @property
+    def cg_tol(self) -> float:
+        """implicit Euler: the conjugate gradients' relative residual tolerance (default 1e-10)."""
+        return float(self._cg()[0])
+
+    @cg_tol.setter
+    def cg_tol(self, value: float) -> None:
+        self._cg()[0] = V.positive("cg_tol", value)
+
+    @property
+    def cg_max_iter(self) -> int:
+        """implicit Euler: the largest number of conjugate-gradient iterations per step."""
+        return int(self._cg()[1])
+
+    @cg_max_iter.setter
+    def cg_max_iter(self, value: int) -> None:
+        self._cg()[1] = V.integer("cg_max_iter", value, 1)
+
+    def _cg(self) -> np.ndarray:
+        work = self._runner.work
+        if not hasattr(work, "cg"):
+            raise AttributeError(f"cg_tol and cg_max_iter belong to implicit_euler, not {self.integrator}")
+        return work.cg
+
+    def neighbour_list_stats(self, world: int = 0) -> dict:
+        """The neighbour list of one world (``stepping='neighbour_list'``): builds so far, balls
+        escaped now, mean listed neighbours per ball at the last build, and its capacity."""
+        if self._runner.lists is None:
+            raise ValueError(f"this World steps {self.stepping!r}, without a neighbour list")
+        return self._runner.lists.stats(V.integer("world", world, 0, self.n_worlds - 1))
+
+    @property
+    def force_evaluations_per_step(self) -> int:
+        """Full contact passes per step (implicit Euler: one, plus its CG iterations' products)."""
+        return 4 if self.integrator == "rk4" else 1
+
+    # ---------------------------------------------------------------- the state (StateView)
+    @property
+    def positions(self) -> np.ndarray:
+        """Current centres, shaped as given (read-only view; change them with ``set_state``)."""
+        return self.state_view.positions
+
+    @positions.setter
+    def positions(self, value: Any) -> None:
+        self.state_view.set_state(positions=value)
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Current velocities, shaped as given (read-only view)."""
+        return self.state_view.velocities
+
+    @velocities.setter
+    def velocities(self, value: Any) -> None:
+        self.state_view.set_state(velocities=value)
+
+    @property
+    def angular_velocities(self) -> np.ndarray:
+        """Current angular velocities, ``(n, 3)`` in 3D and ``(n, 1)`` in 2D (about the axis out of
+        the plane), ``(B, n, .)`` when batched (read-only view; zeros when ``rotation=False``)."""
+        return self.state_view.angular_velocities
+
+    @angular_velocities.setter
+    def angular_velocities(self, value: Any) -> None:
+        self.state_view.set_state(angular_velocities=value)
+
+    def set_state(
+        self, positions: Any = None, velocities: Any = None, worlds: Any = None, angular_velocities: Any = None
+    ) -> None:
+        """Overwrite positions, velocities and/or (with rotation) angular velocities, of all worlds or
+        of the worlds indexed by ``worlds`` (then the arrays are ``(len(worlds), n, .)``). New
+        positions end every contact's tangential history in those worlds."""
+        self.state_view.set_state(positions, velocities, worlds, angular_velocities)
+
+    def invalidate_cache(self, worlds: Any = None) -> None:
+        """Forget what was derived from the state (velocity Verlet's cached acceleration, a large
+        world's neighbour list and storage order), after writing ``state``'s arrays directly."""
+        self.state_view.invalidate_cache(worlds)
+
+    def energy(self) -> Any:
+        """Kinetic + gravitational + penalty-spring potential (1/2 ks overlap^2), per world; with
+        rotation also the rotational kinetic energy (1/2 I w^2) and the tangential springs' (1/2 kt
+        xi^2, the history model)."""
+        return self.state_view.energy()
+
+    def max_penetration(self) -> Any:
+        """Largest overlap as a fraction of the (smaller) radius in contact, per world."""
+        return self.state_view.max_penetration()
+
+    def momentum(self) -> np.ndarray:
+        """Total linear momentum per world, ``(d,)`` or ``(B, d)``."""
+        return self.state_view.momentum()
+
+    def angular_momentum(self) -> np.ndarray:
+        """Total angular momentum about the origin per world, sum of m x cross v + I w: ``(3,)`` in
+        3D, ``(1,)`` in 2D (about the axis out of the plane), ``(B, .)`` when batched."""
+        return self.state_view.angular_momentum()
+
+    # ---------------------------------------------------------------- the terrain (TerrainView)
+    def shape_pose(self, shape: int, world: int = 0) -> dict[str, np.ndarray]:
+        """The current pose of ``terrain[shape]`` in one world: ``position`` (its centre), ``rotation``,
+        ``velocity`` and ``angular_velocity`` (3 components in 3D, 1 in 2D). Static spheres and
+        bowls report their fixed pose."""
+        return self.terrain_view.shape_pose(shape, world)
+
+    def set_shape_pose(
+        self,
+        shape: int,
+        position: Any = None,
+        rotation: Any = None,
+        velocity: Any = None,
+        angular_velocity: Any = None,
+        worlds: Any = None,
+    ) -> None:
+        """Move ``terrain[shape]`` between steps, in every world or in ``worlds``: its centre, its
+        rotation matrix, and (for a shape made kinematic, with a velocity or angular velocity at
+        construction) the velocity and angular velocity it moves on with in every step. A paddle or
+        a lid a policy moves sets them at every control step. Values are one for all the chosen
+        worlds, or one per world (a leading axis of len(worlds))."""
+        self.terrain_view.set_shape_pose(shape, position, rotation, velocity, angular_velocity, worlds)
+
+    def set_heights(self, shape: int, heights: Any, worlds: Any = None) -> None:
+        """Replace the node heights of the HeightField ``terrain[shape]`` in every world or in
+        ``worlds`` (one grid for all of them, or one per world), between steps. Balls are not moved
+        (see :meth:`set_shape_pose`)."""
+        self.terrain_view.set_heights(shape, heights, worlds)
+
+    def shape_heights(self, shape: int, world: int = 0) -> np.ndarray:
+        """The node heights of the HeightField ``terrain[shape]`` in one world (a copy):
+        ``(nx, ny)`` in 3D, ``(nx,)`` in 2D."""
+        return self.terrain_view.shape_heights(shape, world)
+
+    def height_table(self, shape: int) -> tuple[np.ndarray, int]:
+        """The live node heights of the HeightField ``terrain[shape]`` as the kernels read them:
+        ``(table, start)`` (see :meth:`.terrain.TerrainView.height_table`)."""
+        return self.terrain_view.height_table(shape)
+
+    def shape_distance(self, shape: int, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """phi and the outward normal of ``terrain[shape]`` at its current pose in one world, at
+        ``points`` (..., d): ``(phi (...), normal (..., d))``."""
+        return self.terrain_view.shape_distance(shape, points, world)
+
+    def terrain_distance(self, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """The terrain's signed distance at ``points`` (..., d) in one world, the smallest phi of
+        its shapes at their current poses (the union of their solids), and the outward normal of
+        that shape: ``(phi (...), normal (..., d))``; inf and zeros without terrain."""
+        return self.terrain_view.terrain_distance(points, world)
+
+    # ---------------------------------------------------------------- parameters and the guard
+    def parameters(self, world: int = 0) -> dict[str, Any]:
+        """World ``world``'s physics parameters: ``masses``, ``radii`` (``(n,)`` arrays), ``ks, kd,
+        ks_terrain, kd_terrain, mu, kf`` and the motors' ``max_force`` (``(m,)``); with rotation also
+        ``kr``. The same for every world unless the World was made with ``per_world=True``."""
+        return self.params.get(int(world_index([world], self.n_worlds)[0]))
+
+    def set_parameters(
+        self,
+        worlds: Any = None,
+        *,
+        masses: Any = None,
+        radii: Any = None,
+        ks: Any = None,
+        kd: Any = None,
+        ks_terrain: Any = None,
+        kd_terrain: Any = None,
+        mu: Any = None,
+        kf: Any = None,
+        max_force: Any = None,
+        guard: bool = True,
+    ) -> None:
+        """Set the physics parameters of ``worlds`` (all when None) of a ``per_world=True`` World
+        (:meth:`.parameters.Parameters.set` says each argument's shape, what follows from them and
+        the guard they are held to)."""
+        idx = self._all_worlds if worlds is None else world_index(worlds, self.n_worlds)
+        values = dict(masses=masses, radii=radii, ks=ks, kd=kd, ks_terrain=ks_terrain, kd_terrain=kd_terrain)
+        self.params.set(idx, mu=mu, kf=kf, max_force=max_force, guard=guard, **values)
+
+    def stability_limit(self) -> float:
+        """Largest dt the guard accepts (:meth:`.guard.StabilityGuard.stability_limit`)."""
+        return self.guard.stability_limit()
+
+    def energy_limit(self) -> float:
+        """Largest dt within the energy budget (:meth:`.guard.StabilityGuard.energy_limit`)."""
+        return self.guard.energy_limit()
+
+    def stability_limit_for(
+        self, masses: Any, radii: Any, ks: float, kd: float, ks_terrain: float, kd_terrain: float
+    ) -> float:
+        """The guard's stability limit (:meth:`stability_limit`) of this World's scene with these
+        masses, radii and contact parameters (the World is left as it is): for a caller that checks
+        parameters before it sets them (a randomised environment, its ranges' corners)."""
+        return self.params.stability_limit_for(masses, radii, ks, kd, ks_terrain, kd_terrain)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -419,7 +724,7 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
         (a motor's force is re-evaluated at the velocity of every step); a motor holds its last
         throttle (0 at first) until it is given another."""
         n = V.integer("n", n, 0, MAX_STEPS_PER_CALL, "number of steps")
-        idx = None if worlds is None else self._world_index(worlds)
+        idx = None if worlds is None else world_index(worlds, self.n_worlds)
         count = self.n_worlds if idx is None else len(idx)
         control = self._control
         if forces is not None:
@@ -470,11 +775,6 @@ class World(ParameterAccess, StabilityGuard, TerrainAccess, StateAccess):
                 RuntimeWarning,
                 stacklevel=3,
             )
-
-    def _max_penetration_of(self, worlds: np.ndarray, out: np.ndarray) -> None:
-        x = self._state.positions
-        scratch = self._runner.scratch.partners
-        _diagnostics.world_max_penetration(worlds, x, self._grid, scratch, self._model, self.gravity, out)
 
     def __repr__(self) -> str:
         return (

@@ -1,4 +1,4 @@
-"""The state side of a :class:`~.world.World`: its sizes, views of its state, writing a state, and
+"""The state part of a :class:`~.world.World`: its sizes, views of its state, writing a state, and
 the diagnostics of a state (energy, penetration, momenta)."""
 
 from __future__ import annotations
@@ -8,32 +8,58 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as V
-from . import diagnostics as _diagnostics
-from .model import Model, State
+from ... import _validate as V
+from .. import diagnostics as _diagnostics
+from ..model import Model, State
 
-__all__ = ["StateAccess"]
+__all__ = ["StateView", "Penetration"]
 
 
-class StateAccess:
-    """A World's state methods (its buffers: ``_state``, ``_spin``, ``_runner``, ``_status``...)."""
+class Penetration:
+    """``(worlds, out)``: each listed world's largest overlap as a fraction of the smaller radius in
+    contact, into ``out`` (the diagnostics kernel over the World's state, grid and scratch)."""
 
-    _state: State
-    _model: Model
-    _batched: bool
-    _spin: Any
-    _runner: Any
-    _status: np.ndarray
-    _scalar: np.ndarray
-    _grid: Any
-    _all_worlds: np.ndarray
-    rotation: bool
-    integrator: str
-    stepping: str
-    gravity: tuple
-    masses: np.ndarray
-    _check_start: Callable[[np.ndarray], None]  # the guard's start-overlap warning
-    _max_penetration_of: Callable[[np.ndarray, np.ndarray], None]  # World's diagnostics entry
+    def __init__(self, state: State, model: Model, runner: Any, grid: Any, gravity: tuple) -> None:
+        self.state, self.model, self.runner, self.grid, self.gravity = state, model, runner, grid, gravity
+
+    def __call__(self, worlds: np.ndarray, out: np.ndarray) -> None:
+        scratch = self.runner.scratch.partners
+        x = self.state.positions
+        _diagnostics.world_max_penetration(worlds, x, self.grid, scratch, self.model, self.gravity, out)
+
+
+class StateView:
+    """A World's state: views of its buffers, writing them, and what is measured of them.
+
+    Args:
+        state: the ``(B, n, d)`` position and velocity buffers; ``spin``: the rotation's
+            (:class:`~..model.Spin`, or None); ``model``: the scene; ``runner``: what steps them
+            (its scratch, its caches to forget after a write); ``grid``: the broadphase's.
+        batched: the World was given a world axis (views then keep it).
+        gravity: the gravity vector; ``rotation``: the balls spin.
+        penetration: the :class:`Penetration` of this state.
+        check_start: the guard's :class:`~.guard.StartCheck` (called for written positions).
+    """
+
+    def __init__(
+        self,
+        state: State,
+        spin: Any,
+        model: Model,
+        runner: Any,
+        grid: Any,
+        batched: bool,
+        gravity: tuple,
+        rotation: bool,
+        penetration: Penetration,
+        check_start: Callable[[np.ndarray], None],
+    ) -> None:
+        self._state, self._spin, self._model, self._runner, self._grid = state, spin, model, runner, grid
+        self._batched, self.gravity, self.rotation = batched, gravity, rotation
+        self._check_start = check_start
+        self.penetration_into = penetration
+        self._scalar = np.zeros(state.positions.shape[0])
+        self._all_worlds = np.arange(state.positions.shape[0], dtype=np.int64)
 
     @property
     def n_worlds(self) -> int:
@@ -46,77 +72,6 @@ class StateAccess:
     @property
     def dim(self) -> int:
         return self._state.positions.shape[2]
-
-    @property
-    def model(self) -> Model:
-        """The scene's static description (radii, masses, terrain, every contact parameter)."""
-        return self._model
-
-    @property
-    def spin(self) -> Any:
-        """The rotation's parameters and buffers (:class:`~.model.Spin`: inverse inertias, rolling
-        resistance, tangential history), or None for balls that neither spin nor carry a history."""
-        return self._spin
-
-    @property
-    def state(self) -> State:
-        """The World's own ``(B, n, d)`` position and velocity buffers, always batched. For code
-        that fuses its own per-step work with the core's kernels (the environments do): after
-        writing them directly, call :meth:`invalidate_cache` for the worlds written."""
-        return self._state
-
-    @property
-    def runner(self) -> Any:
-        """The runner that steps this World (its path, buffers and thread pool)."""
-        return self._runner
-
-    @property
-    def event_buffers(self) -> Any:
-        """The event location's buffers and counters (``events.stats(world)`` sums them), or None."""
-        return self._runner.event_buffers
-
-    @property
-    def status(self) -> np.ndarray:
-        """Per world, after the last step: 0 ok, 1 NaN or inf, 2 implicit Euler's solve did not converge."""
-        out = self._status.view()
-        out.flags.writeable = False
-        return out
-
-    @property
-    def cg_tol(self) -> float:
-        """implicit Euler: the conjugate gradients' relative residual tolerance (default 1e-10)."""
-        return float(self._cg()[0])
-
-    @cg_tol.setter
-    def cg_tol(self, value: float) -> None:
-        self._cg()[0] = V.positive("cg_tol", value)
-
-    @property
-    def cg_max_iter(self) -> int:
-        """implicit Euler: the largest number of conjugate-gradient iterations per step."""
-        return int(self._cg()[1])
-
-    @cg_max_iter.setter
-    def cg_max_iter(self, value: int) -> None:
-        self._cg()[1] = V.integer("cg_max_iter", value, 1)
-
-    def _cg(self) -> np.ndarray:
-        work = self._runner.work
-        if not hasattr(work, "cg"):
-            raise AttributeError(f"cg_tol and cg_max_iter belong to implicit_euler, not {self.integrator}")
-        return work.cg
-
-    def neighbour_list_stats(self, world: int = 0) -> dict:
-        """The neighbour list of one world (``stepping='neighbour_list'``): builds so far, balls
-        escaped now, mean listed neighbours per ball at the last build, and its capacity."""
-        if self._runner.lists is None:
-            raise ValueError(f"this World steps {self.stepping!r}, without a neighbour list")
-        return self._runner.lists.stats(V.integer("world", world, 0, self.n_worlds - 1))
-
-    @property
-    def force_evaluations_per_step(self) -> int:
-        """Full contact passes per step (implicit Euler: one, plus its CG iterations' products)."""
-        return 4 if self.integrator == "rk4" else 1
 
     def _view(self, arr: np.ndarray) -> np.ndarray:
         out = arr if self._batched else arr[0]
@@ -194,16 +149,6 @@ class StateAccess:
                 self._spin.clock[idx] += 2  # every stamp is now stale: no contact continues
         self._runner.forget(idx)
 
-    def _world_index(self, worlds: Any) -> Any:
-        if worlds is None:
-            return slice(None)
-        if np.asarray(worlds).dtype.kind not in "iu":
-            raise ValueError(f"worlds must be integer world indices, got dtype {np.asarray(worlds).dtype}")
-        chosen = np.atleast_1d(np.asarray(worlds, dtype=np.int64))
-        if chosen.size and (chosen.min() < 0 or chosen.max() >= self.n_worlds):
-            raise ValueError(f"worlds must index 0..{self.n_worlds - 1}, got {worlds!r}")
-        return chosen
-
     def invalidate_cache(self, worlds: Any = None) -> None:
         """Forget what was derived from the state (velocity Verlet's cached acceleration, a large
         world's neighbour list and storage order), after writing ``state``'s arrays directly."""
@@ -233,7 +178,7 @@ class StateAccess:
 
     def max_penetration(self) -> Any:
         """Largest overlap as a fraction of the (smaller) radius in contact, per world."""
-        self._max_penetration_of(self._all_worlds, self._scalar)
+        self.penetration_into(self._all_worlds, self._scalar)
         return self._per_world(self._scalar)
 
     def _ball_masses(self) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""The terrain side of a :class:`~.world.World`: each shape's pose per world, height fields' heights,
+"""The terrain part of a :class:`~.world.World`: each shape's pose per world, height fields' heights,
 and the terrain's signed distance at points."""
 
 from __future__ import annotations
@@ -7,12 +7,13 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate as V
-from .geometry.evaluate import evaluate
-from .geometry.heightfield import HeightField
-from .geometry.table import DIRECT, INDEX, MOVING, pose_columns
+from ... import _validate as V
+from ..geometry.evaluate import evaluate
+from ..geometry.heightfield import HeightField
+from ..geometry.table import DIRECT, INDEX, MOVING, ShapeTable, pose_columns
+from .checks import world_index
 
-__all__ = ["TerrainAccess", "per_world"]
+__all__ = ["TerrainView", "per_world"]
 
 
 def per_world(name: str, value: Any, shape: tuple[int, ...], count: int) -> np.ndarray:
@@ -27,23 +28,32 @@ def per_world(name: str, value: Any, shape: tuple[int, ...], count: int) -> np.n
     return arr
 
 
-class TerrainAccess:
-    """A World's terrain methods (``terrain``, its shapes; ``_rows``, each one's table row)."""
+class TerrainView:
+    """A World's terrain: its shapes' poses and heights per world, read and written, and the signed
+    distance at points.
 
-    terrain: tuple
-    _rows: tuple
-    _model: Any
-    _runner: Any
-    n_worlds: int
-    dim: int
-    gravity: tuple
-    _world_index: Any
+    Args:
+        terrain: the World's shapes; ``rows``: each one's row in ``table``, the shape table the
+            kernels read (its pose and height columns are per world).
+        n_worlds, dim: the World's sizes; ``gravity``: its gravity (the table's evaluation takes it).
+        forget: ``(worlds)`` -> the runner forgets what it derived of those worlds (after a move).
+    """
+
+    def __init__(
+        self, terrain: tuple, rows: tuple, table: ShapeTable, n_worlds: int, dim: int, gravity: tuple, forget: Any
+    ) -> None:
+        self.terrain, self._rows, self._table = terrain, rows, table
+        self.n_worlds, self.dim, self.gravity = n_worlds, dim, gravity
+        self._forget = forget
+
+    def _world_index(self, worlds: Any) -> Any:
+        return world_index(worlds, self.n_worlds)
 
     def _slot(self, shape: Any) -> tuple[int, int]:
         """(terrain index, table row) of a shape that may move."""
         k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
         row = self._rows[k]
-        if self._model.shapes.flags[row] & DIRECT:
+        if self._table.flags[row] & DIRECT:
             raise ValueError(
                 f"terrain[{k}] is a static {type(self.terrain[k]).__name__}: static spheres and bowls are shared by "
                 f"every world and cannot move; give it velocity=(0.0,) * d at construction to make it kinematic"
@@ -52,7 +62,7 @@ class TerrainAccess:
 
     def _pose_rows(self, row: int) -> np.ndarray:
         """The (B, P) pose rows of a table row (a view into the model's arrays)."""
-        return self._model.shapes.pose[:, row]
+        return self._table.pose[:, row]
 
     def shape_pose(self, shape: int, world: int = 0) -> dict[str, np.ndarray]:
         """The current pose of ``terrain[shape]`` in one world: ``position`` (its centre), ``rotation``,
@@ -61,7 +71,7 @@ class TerrainAccess:
         k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
         b = V.integer("world", world, 0, self.n_worlds - 1)
         d = self.dim
-        if self._model.shapes.flags[self._rows[k]] & DIRECT:
+        if self._table.flags[self._rows[k]] & DIRECT:
             t = self.terrain[k]
             return {
                 "position": np.array(t.center),
@@ -97,7 +107,7 @@ class TerrainAccess:
         d = self.dim
         idx = self._world_index(worlds)
         count = self.n_worlds if worlds is None else len(np.atleast_1d(idx))
-        if (velocity is not None or angular_velocity is not None) and not self._model.shapes.flags[row] & MOVING:
+        if (velocity is not None or angular_velocity is not None) and not self._table.flags[row] & MOVING:
             raise ValueError(
                 f"terrain[{k}] was made static (it does not move with every step): give it velocity=(0.0,) * {d} "
                 f"at construction to set its velocity or angular velocity"
@@ -129,7 +139,7 @@ class TerrainAccess:
                 rows[:, cols[column]] = value
             else:
                 rows[idx, cols[column]] = value
-        self._runner.forget(idx)
+        self._forget(idx)
 
     def set_heights(self, shape: int, heights: Any, worlds: Any = None) -> None:
         """Replace the node heights of the HeightField ``terrain[shape]`` in every world or in
@@ -144,11 +154,11 @@ class TerrainAccess:
         count = self.n_worlds if worlds is None else len(np.atleast_1d(idx))
         shape_ = (nx,) if self.dim == 2 else (nx, ny)
         h = per_world("heights", heights, shape_, count)
-        table = self._model.shapes
+        table = self._table
         start = int(table.shape[row, INDEX])
         flat = h.reshape(h.shape[: h.ndim - len(shape_)] + (nx * ny,))
         table.heights[idx, start : start + nx * ny] = flat
-        self._runner.forget(idx)
+        self._forget(idx)
 
     def shape_heights(self, shape: int, world: int = 0) -> np.ndarray:
         """The node heights of the HeightField ``terrain[shape]`` in one world (a copy):
@@ -159,7 +169,7 @@ class TerrainAccess:
         if not isinstance(hf, HeightField):
             raise ValueError(f"terrain[{k}] is a {type(hf).__name__}, not a HeightField")
         nx, ny = hf.grid_shape
-        table = self._model.shapes
+        table = self._table
         start = int(table.shape[self._rows[k], INDEX])
         flat = table.heights[b, start : start + nx * ny].copy()
         return flat if self.dim == 2 else flat.reshape(nx, ny)
@@ -172,7 +182,7 @@ class TerrainAccess:
         k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
         if not isinstance(self.terrain[k], HeightField):
             raise ValueError(f"terrain[{k}] is a {type(self.terrain[k]).__name__}, not a HeightField")
-        table = self._model.shapes
+        table = self._table
         return table.heights, int(table.shape[self._rows[k], INDEX])
 
     def shape_distance(self, shape: int, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -182,10 +192,10 @@ class TerrainAccess:
         b = V.integer("world", world, 0, self.n_worlds - 1)
         pts, flat = self._points(points)
         row = self._rows[k]
-        if self._model.shapes.flags[row] & DIRECT:
+        if self._table.flags[row] & DIRECT:
             phi, normal = self.terrain[k].phi(flat), self.terrain[k].grad_phi(flat)
         else:
-            ev = self._evaluate(b, flat)
+            ev = self.evaluate(b, flat)
             phi, normal = ev[:, row, 0], ev[:, row, 1 : 1 + self.dim]
         return phi.reshape(pts.shape[:-1]), normal.reshape(pts.shape)
 
@@ -195,10 +205,10 @@ class TerrainAccess:
             raise ValueError(f"points must have last dimension {self.dim}, got shape {pts.shape}")
         return pts, np.ascontiguousarray(pts.reshape(-1, self.dim))
 
-    def _evaluate(self, b: int, flat: np.ndarray) -> np.ndarray:
+    def evaluate(self, b: int, flat: np.ndarray) -> np.ndarray:
         """(m, S, 4): phi and the normal of every table row of world b at the points ``flat``."""
-        ev = np.zeros((len(flat), self._model.shapes.count, 4))
-        evaluate(self._model.shapes, b, flat, ev, self.gravity)
+        ev = np.zeros((len(flat), self._table.count, 4))
+        evaluate(self._table, b, flat, ev, self.gravity)
         return ev
 
     def terrain_distance(self, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -210,7 +220,7 @@ class TerrainAccess:
         d = self.dim
         phi = np.full(len(flat), np.inf)
         normal = np.zeros((len(flat), d))
-        flags = self._model.shapes.flags
+        flags = self._table.flags
         general = [k for k in range(len(self.terrain)) if not flags[self._rows[k]] & DIRECT]
         for k, shape in enumerate(self.terrain):
             if flags[self._rows[k]] & DIRECT:
@@ -220,7 +230,7 @@ class TerrainAccess:
                 normal = np.where(closer[:, None], n, normal)
         if general:
             rows = sorted(self._rows[k] for k in general)  # the table's order
-            ev = self._evaluate(b, flat)[:, rows]
+            ev = self.evaluate(b, flat)[:, rows]
             k = np.argmin(ev[:, :, 0], axis=1)
             best = ev[np.arange(len(flat)), k]
             closer = best[:, 0] < phi
