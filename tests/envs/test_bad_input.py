@@ -108,6 +108,12 @@ CONFIGURE_CASES = [
 ]
 
 
+def _make_with_unknown_render_mode():
+    """Gymnasium warns of a render mode the metadata does not list before the env refuses it."""
+    with pytest.warns(UserWarning, match="render_mode='rgb'"):
+        return gym.make("PenaltyBalls-v0", render_mode="rgb")
+
+
 def _env_kwarg_cases():
     out = []
     for name, (_, lo, hi, _) in PARAMETERS.items():
@@ -129,7 +135,7 @@ def _env_kwarg_cases():
 
 
 ENV_CASES = _env_kwarg_cases() + [
-    ("render_mode unknown", lambda: gym.make("PenaltyBalls-v0", render_mode="rgb"), "render_mode", "rgb", "rgb_array"),
+    ("render_mode unknown", lambda: _make_with_unknown_render_mode(), "render_mode", "rgb", "rgb_array"),
     ("num_envs zero", lambda: PenaltyBallsVectorEnv(num_envs=0), "num_envs", "0", "[1, inf]"),
     ("num_envs float", lambda: PenaltyBallsVectorEnv(num_envs=2.5), "num_envs", "2.5", "int"),
     (

@@ -71,12 +71,13 @@ def test_gymnasium_vector_record_video_records_the_native_vector_env(tmp_path):
     venv = gym.make_vec("PenaltyBalls-v0", num_envs=3, render_mode="rgb_array")
     frames = venv.render()
     assert len(frames) == 3 and frames[0].shape == (256, 256, 3)
-    rec = RecordVideo(venv, str(tmp_path), episode_trigger=lambda e: e == 0, video_length=5)
+    folder = tmp_path / "videos"  # (a new folder: Gymnasium warns of overwriting an existing one)
+    rec = RecordVideo(venv, str(folder), episode_trigger=lambda e: e == 0, video_length=5)
     rec.reset(seed=0)
     for _ in range(6):
         rec.step(np.zeros((3, 2), np.float32))
     rec.close()
-    assert list(tmp_path.glob("*.mp4"))
+    assert list(folder.glob("*.mp4"))
 
 
 FRESH = """
