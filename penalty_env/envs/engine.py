@@ -175,6 +175,9 @@ class Batch:
         self.never = np.zeros(B, dtype=np.bool_)
         self._action_shape = (B,) + task.action_space.shape
         self._one_shape = task.action_space.shape
+        # the task's arrays, read once (the protocol: allocated once), for the single env's step
+        self._arrays = (task.actions, task.obs, task.reward, task.success, task.info_values)
+        self._info_keys, self._int_info = task.info_keys, task.int_info
 
     # ------------------------------------------------------------------ seeding and resets
     def __getstate__(self) -> dict:
@@ -288,13 +291,16 @@ class Batch:
         """The single env's step of world 0: (observation, reward, terminated, info)."""
         task = self.task
         shape = self._one_shape
+        actions, obs, reward, success, _ = self._arrays
         # fast path: a float array of the right shape is copied straight into the kernel's buffer
         if type(action) is not np.ndarray or action.shape != shape or action.dtype.kind != "f":
             action = coerce_action(action, shape)
-        task.actions[0] = action
+        actions[0] = action
         task.step()  # NaN or inf in the action raises ValueError here, before anything moves
         if self.outcome_of is None:
-            return self.observe_one(0), float(task.reward[0]), bool(task.success[0]), self.info(0)
+            done = bool(success[0])
+            one = obs[0].copy() if self.state_view else self.observe_one(0)
+            return one, float(reward[0]), done, self.info(0, done)
         rewards, success = self.outcome_of(task.obs[:1])
         return self.observe_one(0), float(rewards[0]), bool(success[0]), self.info(0, bool(success[0]))
 
@@ -329,8 +335,8 @@ class Batch:
         """World b's info dict of the last step or reset: numpy scalars, and ``is_success`` a
         Python bool (Gymnasium's own vector envs batch a numpy bool into an object array)."""
         task = self.task
-        info = dict(zip(task.info_keys, task.info_values[:, b]))  # iterating a float64 array gives its scalars
-        for key in task.int_info:
+        info = dict(zip(self._info_keys, self._arrays[4][:, b]))  # iterating a float64 array gives its scalars
+        for key in self._int_info:
             info[key] = np.int64(info[key])
         if success is None:
             success = bool(task.success[b] if self.outcome_of is None else self.outcome_of(task.obs[b : b + 1])[1][0])

@@ -325,6 +325,7 @@ class PenaltyBallsScene:
         # the arguments of a whole-batch step, made once, and the kernel compiled for their types
         # (called without Numba's per-call type resolution: the arguments are fixed)
         self._step_calls = self._calls(self._chunks)
+        self._step_args = [c + (self.scene_arrays, self.heightmap) for c in self._step_calls]  # (made once)
         self._step_kernel: Any = self._kernels()
 
     def __getstate__(self) -> dict:
@@ -370,10 +371,11 @@ class PenaltyBallsScene:
     def _run(self, worlds: np.ndarray, chunks: Sequence[np.ndarray]) -> None:
         if self._step_kernel is None:  # unpickled or copied
             self._step_kernel = self._kernels()
-        calls = self._step_calls if chunks is self._chunks else self._calls(chunks)
+        whole = chunks is self._chunks
+        calls = self._step_calls if whole else self._calls(chunks)
         tail = (self.scene_arrays, self.heightmap)
         if not self.n_grains:
-            codes = runner_module.dispatch(self._step_kernel, [c + tail for c in calls])
+            codes = runner_module.dispatch(self._step_kernel, self._step_args if whole else [c + tail for c in calls])
             code = min(codes) if min(codes) < 0 else sum(codes)
         else:
             act_kernel, observe_kernel = self._step_kernel
