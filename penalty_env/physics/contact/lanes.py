@@ -64,7 +64,7 @@ def pair_lanes(i, j, X, V, A, F, W, model, g):
                 nk = (X[j, k, w] - X[i, k, w]) * inv + (e_last if k == D - 1 else 0.0)
                 vtk = (V[j, k, w] - V[i, k, w]) - vn * nk
                 vt2 += vtk * vtk
-            ratio = regularised_ratio(lane(model.kf, w), mu, fn, vt2)
+            ratio = regularised_ratio(lane(model.kf, w), mu, fn, vt2, False)
         for k in range(D):
             nk = (X[j, k, w] - X[i, k, w]) * inv + (e_last if k == D - 1 else 0.0)
             fk = fn * nk
@@ -130,7 +130,7 @@ def _round_lanes(i, s, c0, c1, c2, X, V, A, F, W, model, g):
             if D == 3:
                 t2 = V[i, 2, w] - vn * g2
                 vt2 += t2 * t2
-            ratio = regularised_ratio(lane(model.kf, w), mu, fn, vt2)
+            ratio = regularised_ratio(lane(model.kf, w), mu, fn, vt2, False)
         f0 = fn * g0
         f1 = fn * g1
         f2 = fn * g2

@@ -62,36 +62,53 @@ def normal_force(ks, kd, pen, vn, no_tension):
 
 
 @njit(hot=True)
-def regularised_ratio(slope, mu, fn, speed2):
+def regularised_ratio(slope, mu, fn, speed2, select):
     """``|f| / |u|`` of a regularised Coulomb law, ``|f| = min(slope |u|, mu |f_n|)`` against a
     relative motion u of squared size ``speed2`` (0 when at rest). Friction: u the sliding
     velocity, ``slope`` kf; rolling resistance: u the rolling angular velocity, ``slope`` kr and
-    ``mu`` mu_r R*."""
+    ``mu`` mu_r R*.
+
+    ``select`` (a constant at each call site, folded once inlined): True for the block passes that
+    vectorise (both outcomes computed, one selected), False for the scalar paths (a branch skips
+    what a case does not need). The same values either way, to the bit; likewise in
+    :func:`turn_into_plane` and :func:`history_spring`."""
+    if select:
+        speed = math.sqrt(speed2)
+        ratio = min(slope * speed, mu * abs(fn)) / speed
+        return ratio if speed2 > 0.0 else 0.0  # (at rest 0, the ratio's 0 / 0 unused)
+    if not speed2 > 0.0:
+        return 0.0
     speed = math.sqrt(speed2)
-    ratio = min(slope * speed, mu * abs(fn)) / speed
-    return ratio if speed2 > 0.0 else 0.0  # (a select: at rest 0, the ratio's 0 / 0 unused)
+    return min(slope * speed, mu * abs(fn)) / speed
 
 
 @njit(hot=True)
-def turn_into_plane(x0, x1, x2, n0, n1, n2):
+def turn_into_plane(x0, x1, x2, n0, n1, n2, select):
     """A continuing contact's spring displacement turned into the current tangent plane (normal
-    n), its length kept (a new contact's zero spring stays zero)."""
+    n), its length kept (a new contact's zero spring stays zero). ``select``: as
+    :func:`regularised_ratio`'s."""
     old = x0 * x0 + x1 * x1 + x2 * x2
     xn = x0 * n0 + x1 * n1 + x2 * n2
     x0 -= xn * n0
     x1 -= xn * n1
     x2 -= xn * n2
     new = x0 * x0 + x1 * x1 + x2 * x2
+    if not select:
+        if new > 0.0:
+            scale = math.sqrt(old / new)
+            return x0 * scale, x1 * scale, x2 * scale
+        return x0, x1, x2
     scale = math.sqrt(old / new)
     turned = new > 0.0  # (selects: along n, or zero, the spring is left as it is)
     return (x0 * scale if turned else x0), (x1 * scale if turned else x1), (x2 * scale if turned else x2)
 
 
 @njit(hot=True)
-def history_spring(x0, x1, x2, s0, s1, s2, fn, kt, kd_t, mu, dt):
+def history_spring(x0, x1, x2, s0, s1, s2, fn, kt, kd_t, mu, dt, select):
     """One step of the tangential spring with history: the displacement xi (already in the tangent
     plane; zero for a new contact) grows by the slip s dt, the force is ``-kt xi - kd_t s``, capped
-    at ``mu |fn|`` (then xi = -(f + kd_t s) / kt). Returns the force and the new displacement."""
+    at ``mu |fn|`` (then xi = -(f + kd_t s) / kt). Returns the force and the new displacement.
+    ``select``: as :func:`regularised_ratio`'s."""
     cap = mu * abs(fn)
     x0 += s0 * dt
     x1 += s1 * dt
@@ -100,7 +117,17 @@ def history_spring(x0, x1, x2, s0, s1, s2, fn, kt, kd_t, mu, dt):
     f1 = -kt * x1 - kd_t * s1
     f2 = -kt * x2 - kd_t * s2
     f2n = f0 * f0 + f1 * f1 + f2 * f2
-    # sliding: the force at the cap, the spring at what the cap allows (selects: both are computed)
+    if not select:
+        if f2n > cap * cap:  # sliding: the force at the cap, the spring at what the cap allows
+            scale = cap / math.sqrt(f2n)
+            f0 *= scale
+            f1 *= scale
+            f2 *= scale
+            x0 = -(f0 + kd_t * s0) / kt
+            x1 = -(f1 + kd_t * s1) / kt
+            x2 = -(f2 + kd_t * s2) / kt
+        return f0, f1, f2, x0, x1, x2
+    # (selects: both are computed)
     sliding = f2n > cap * cap
     scale = cap / math.sqrt(f2n)
     g0 = f0 * scale

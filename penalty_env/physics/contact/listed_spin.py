@@ -174,6 +174,7 @@ def spin_block_law(pairs, bf, sm, sp, D):
             sm,
             sp,
             D,
+            True,  # (select-style: this pass vectorises)
         )
         bf[_DX * B + k] = f0 if touch else 0.0
         bf[(_DX + 1) * B + k] = f1 if touch else 0.0

@@ -80,7 +80,7 @@ def pair_force(b, i, j, x, v, out, model, D):
         vt2 = t0 * t0 + t1 * t1
         if D == 3:
             vt2 += t2 * t2
-        ratio = regularised_ratio(model.kf, model.mu, fn, vt2)
+        ratio = regularised_ratio(model.kf, model.mu, fn, vt2, False)
         f0 += ratio * t0
         f1 += ratio * t1
         f2 += ratio * t2

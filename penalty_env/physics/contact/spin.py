@@ -52,26 +52,21 @@ __all__ = [
 
 
 @njit(hot=True)
-def tangential_law(h0, h1, h2, fn, s0, s1, s2, n0, n1, n2, mu, kf, kt, kd_t, dt):
+def tangential_law(h0, h1, h2, fn, s0, s1, s2, n0, n1, n2, mu, kf, kt, kd_t, dt, select):
     """The tangential force (f0, f1, f2) on a ball whose surface slips at s (tangential) against
     the other body, in contact along n with normal force fn, and the spring after the step (x0, x1,
     x2): with ``kt`` > 0 the spring with history (h the contact's spring from the step before, turned
     into the tangent plane; zero for a new contact), else regularised Coulomb (x zero).
-    Select-style, as the law: the block pass of :mod:`.listed_spin` vectorises it."""
-    x0, x1, x2 = turn_into_plane(h0, h1, h2, n0, n1, n2)
-    f0, f1, f2, x0, x1, x2 = history_spring(x0, x1, x2, s0, s1, s2, fn, kt, kd_t, mu, dt)
+    The branch on ``kt`` is the same for every contact of a world (so the scalar path skips the
+    spring it does not have, and the block pass of :mod:`.listed_spin` still vectorises: a loop
+    invariant); ``select``: as :func:`.law.regularised_ratio`'s (True in the block pass)."""
+    if kt > 0.0:
+        x0, x1, x2 = turn_into_plane(h0, h1, h2, n0, n1, n2, select)
+        return history_spring(x0, x1, x2, s0, s1, s2, fn, kt, kd_t, mu, dt, select)
     st2 = s0 * s0 + s1 * s1 + s2 * s2
-    k = regularised_ratio(kf, mu, fn, st2)
-    spring = kt > 0.0
+    k = regularised_ratio(kf, mu, fn, st2, select)
     slips = st2 > 0.0
-    return (
-        f0 if spring else (-k * s0 if slips else 0.0),
-        f1 if spring else (-k * s1 if slips else 0.0),
-        f2 if spring else (-k * s2 if slips else 0.0),
-        x0 if spring else 0.0,
-        x1 if spring else 0.0,
-        x2 if spring else 0.0,
-    )
+    return (-k * s0 if slips else 0.0), (-k * s1 if slips else 0.0), (-k * s2 if slips else 0.0), 0.0, 0.0, 0.0
 
 
 @njit(hot=True)
@@ -85,23 +80,23 @@ def tangential_force(spin, b, row, slot, fn, s0, s1, s2, n0, n1, n2, mu, kf, D):
         h1 = h[b, row, slot, 1] if continuing else 0.0
         h2 = h[b, row, slot, 2] if continuing and D == 3 else 0.0
         f0, f1, f2, x0, x1, x2 = tangential_law(
-            h0, h1, h2, fn, s0, s1, s2, n0, n1, n2, mu, kf, spin.kt, spin.kd_t, spin.dt
+            h0, h1, h2, fn, s0, s1, s2, n0, n1, n2, mu, kf, spin.kt, spin.kd_t, spin.dt, False
         )
         h[b, row, slot, 0] = x0
         h[b, row, slot, 1] = x1
         h[b, row, slot, 2] = x2
         spin.stamp[b, row, slot] = spin.clock[b] + 1
         return f0, f1, f2
-    f0, f1, f2, _, _, _ = tangential_law(0.0, 0.0, 0.0, fn, s0, s1, s2, n0, n1, n2, mu, kf, 0.0, 0.0, 0.0)
+    f0, f1, f2, _, _, _ = tangential_law(0.0, 0.0, 0.0, fn, s0, s1, s2, n0, n1, n2, mu, kf, 0.0, 0.0, 0.0, False)
     return f0, f1, f2
 
 
 @njit(hot=True)
-def rolling_torque(spin, fn, reff, r0, r1, r2):
+def rolling_torque(spin, fn, reff, r0, r1, r2, select):
     """The rolling-resistance torque on a ball whose rolling angular velocity (relative to the
     other body, tangential part) is w_r."""
     wr2 = r0 * r0 + r1 * r1 + r2 * r2
-    k = regularised_ratio(spin.kr, spin.mu_r * reff, fn, wr2)
+    k = regularised_ratio(spin.kr, spin.mu_r * reff, fn, wr2, select)
     rolls = wr2 > 0.0
     return (-k * r0 if rolls else 0.0), (-k * r1 if rolls else 0.0), (-k * r2 if rolls else 0.0)
 
@@ -125,7 +120,7 @@ def _add_torque(spin, b, i, t0, t1, t2, D):
 
 
 @njit(hot=True)
-def spin_pair_law(overlap, n0, n1, n2, u0, u1, u2, wi0, wi1, wi2, wj0, wj1, wj2, ri, rj, h, model, spin, D):
+def spin_pair_law(overlap, n0, n1, n2, u0, u1, u2, wi0, wi1, wi2, wj0, wj1, wj2, ri, rj, h, model, spin, D, select):
     """The law of two touching spinning balls i and j: overlap, unit normal n (i to j), relative
     velocity u = v_j - v_i, angular velocities w_i, w_j (3-vectors), radii; ``h`` the pair's spring
     from the step before (3 numbers, from i's side; zeros for a new contact). Select-style, so the
@@ -149,7 +144,7 @@ def spin_pair_law(overlap, n0, n1, n2, u0, u1, u2, wi0, wi1, wi2, wj0, wj1, wj2,
     q0 = q1 = q2 = m0 = m1 = m2 = 0.0
     if model.mu > 0.0:
         t0, t1, t2, x0, x1, x2 = tangential_law(
-            h[0], h[1], h[2], fn, s0, s1, s2, n0, n1, n2, model.mu, model.kf, spin.kt, spin.kd_t, spin.dt
+            h[0], h[1], h[2], fn, s0, s1, s2, n0, n1, n2, model.mu, model.kf, spin.kt, spin.kd_t, spin.dt, select
         )
         q0, q1, q2 = cross(n0, n1, n2, t0, t1, t2)  # n x f_t: times l_i on i, l_j on j
     if spin.mu_r > 0.0:
@@ -157,7 +152,7 @@ def spin_pair_law(overlap, n0, n1, n2, u0, u1, u2, wi0, wi1, wi2, wj0, wj1, wj2,
         r1 = wi1 - wj1
         r2 = wi2 - wj2
         rn = r0 * n0 + r1 * n1 + r2 * n2  # the twist about n is not resisted
-        m0, m1, m2 = rolling_torque(spin, fn, ri * rj / (ri + rj), r0 - rn * n0, r1 - rn * n1, r2 - rn * n2)
+        m0, m1, m2 = rolling_torque(spin, fn, ri * rj / (ri + rj), r0 - rn * n0, r1 - rn * n1, r2 - rn * n2, select)
     f0 = fn * n0 + t0
     f1 = fn * n1 + t1
     f2 = fn * n2 + t2
@@ -203,6 +198,7 @@ def spin_pair(b, i, j, row, slot, x, v, a, model, spin, D):
         model,
         spin,
         D,
+        False,
     )
     if history:
         hh[b, row, slot, 0] = x0
@@ -273,7 +269,7 @@ def spin_terrain_contact(b, i, slot, pen, n0, n1, n2, w0s, w1s, w2s, v, a, model
         a[b, i, 2] += f2
     if spin.mu_r > 0.0:
         rn = w0 * n0 + w1 * n1 + w2 * n2
-        m0, m1, m2 = rolling_torque(spin, fn, r, w0 - rn * n0, w1 - rn * n1, w2 - rn * n2)
+        m0, m1, m2 = rolling_torque(spin, fn, r, w0 - rn * n0, w1 - rn * n1, w2 - rn * n2, False)
         _add_torque(spin, b, i, m0, m1, m2, D)
 
 

@@ -48,7 +48,7 @@ def terrain_law(pen, n0, n1, n2, r0, r1, r2, ks, kd, no_tension, mu, kf, D):
         vt2 = t0 * t0 + t1 * t1
         if D == 3:
             vt2 += t2 * t2
-        ratio = regularised_ratio(kf, mu, fn, vt2)
+        ratio = regularised_ratio(kf, mu, fn, vt2, False)
         f0 -= ratio * t0  # opposes sliding
         f1 -= ratio * t1
         f2 -= ratio * t2
