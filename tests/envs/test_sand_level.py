@@ -329,3 +329,18 @@ def test_level_randomize_refuses_unknown_names_and_out_of_range_pairs():
     env = gym.make("PenaltySandLevel2D-v0", randomize={"friction": (0.3, 0.5)})
     with pytest.raises(ValueError, match="friction"):
         env.reset(seed=0, options={"randomize": {"friction": (0.1, 0.5)}})
+
+
+def test_level_observation_modes_come_from_the_shared_views():
+    """obs_mode on the level task: the views' spaces, the state part equal to the state env's,
+    the picture of the grains not blank, the height map centred on the blade."""
+    state = gym.make("PenaltySandLevel2D-v0")
+    env = gym.make("PenaltySandLevel2D-v0", obs_mode=("state", "heightmap", "rgb"))
+    assert set(env.observation_space.spaces) == {"state", "heightmap", "rgb"}
+    s, _ = state.reset(seed=3)
+    o, _ = env.reset(seed=3)
+    np.testing.assert_array_equal(o["state"], s)
+    for key, space in env.observation_space.spaces.items():
+        assert space.contains(o[key]), key
+    assert o["rgb"].std() > 0  # grains and floor drawn, not a blank frame
+    assert o["heightmap"].max() > 0  # sand under the blade's window

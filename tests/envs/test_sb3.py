@@ -166,3 +166,27 @@ def test_stagger_cuts_only_the_first_episodes_and_leaves_the_worlds_alone():
     for t in range(1, T + 1):
         _, _, done_c, _ = cut.step(zero)
         assert done_c.all() == done_c.any() == (t == T)
+
+
+def test_the_level_task_on_the_adapter_equals_a_dummy_vec_env_of_single_envs():
+    """The level task gains SB3's VecEnv through the one engine: its episodes (with autoreset
+    after short truncated episodes) equal DummyVecEnv's of single envs, randomised too."""
+    kw = dict(max_episode_steps=6, randomize={"friction": (0.3, 0.7), "blade_speed": (0.3, 0.6)})
+    ours = make_vec_env("PenaltySandLevel2D-v0", n_envs=2, seed=5, monitor=False, **kw)
+    assert isinstance(ours, PenaltyBallsVecEnv)
+    twin = dummy_twin("PenaltySandLevel2D-v0", 2, 5, **kw)
+    obs_a, obs_b = ours.reset(), twin.reset()
+    np.testing.assert_array_equal(obs_a, obs_b)
+    rng = np.random.default_rng(2)
+    ended = 0
+    for t in range(14):
+        acts = rng.uniform(-1, 1, (2, 1)).astype(np.float32)
+        obs_a, rew_a, done_a, infos_a = ours.step(acts)
+        obs_b, rew_b, done_b, infos_b = twin.step(acts)
+        np.testing.assert_array_equal(obs_a, obs_b)
+        np.testing.assert_array_equal(rew_a, rew_b)
+        np.testing.assert_array_equal(done_a, done_b)
+        for a, b in zip(infos_a, infos_b):
+            assert a["randomization"] == b["randomization"] and a["error"] == b["error"], t
+        ended += int(done_a.sum())
+    assert ended >= 4  # episodes ended and reset automatically
