@@ -15,9 +15,9 @@ from gymnasium.envs.registration import register, registry
 __version__ = "0.1.0"
 
 _ENVS = "penalty_env.envs.penalty_balls"
-_MAX_EPISODE_STEPS = 150  # penalty_env.envs.penalty_balls.MAX_EPISODE_STEPS (kept literal: no import)
-_SAND_V1_EPISODE_STEPS = 300  # penalty_env.envs.penalty_balls.SAND_V1_EPISODE_STEPS (kept literal: no import)
-_SAND_V1_GRAIN_MASS = 0.5  # penalty_env.envs.scene.SAND_V1_GRAIN_MASS, kg (kept literal: no import)
+_MAX_EPISODE_STEPS = 150  # penalty_env.envs.balls.params.MAX_EPISODE_STEPS (kept literal: no import)
+_SAND_V1_EPISODE_STEPS = 300  # penalty_env.envs.balls.params.SAND_V1_EPISODE_STEPS (kept literal: no import)
+_SAND_V1_GRAIN_MASS = 0.5  # penalty_env.envs.balls.params.SAND_V1_GRAIN_MASS, kg (kept literal: no import)
 
 # v0: balls that slide; v1: balls that roll (physics="rolling"; the docstring's version history).
 # v1 is a sibling task, not v0's replacement (v0 stays the main id, bit for bit): Gymnasium's
@@ -26,9 +26,10 @@ _SAND_V1_GRAIN_MASS = 0.5  # penalty_env.envs.scene.SAND_V1_GRAIN_MASS, kg (kept
 warnings.filterwarnings(
     "ignore", message=r".*The environment PenaltyBalls(Sand)?(2D)?-v0 is out of date", category=DeprecationWarning
 )
-# Sand: v1's rolling physics with a settled bed of grains in the bowl (penalty_env.envs.scene's
-# SAND_GRAINS: 300 in 3D, 40 in 2D). Sand-v1: grains of 0.5 kg (no longer setting the substep:
-# 9 per step as in v1, against Sand-v0's 25) and 300-step episodes (the env docstring's history).
+# Sand: v1's rolling physics with a settled bed of grains in the bowl (the `grains` parameter of
+# penalty_env.envs.balls.params, registered here: 300 in 3D, 40 in 2D). Sand-v1: grains of 0.5 kg
+# (no longer setting the substep: 9 per step as in v1, against Sand-v0's 25) and 300-step episodes
+# (the env docstring's history).
 for _id, _dim, _physics, _grains, _extra, _steps in (
     ("PenaltyBalls-v0", 3, "sliding", 0, {}, _MAX_EPISODE_STEPS),
     ("PenaltyBalls2D-v0", 2, "sliding", 0, {}, _MAX_EPISODE_STEPS),
@@ -55,7 +56,8 @@ for _id, _dim, _physics, _grains, _extra, _steps in (
         )
 
 # The sand-shaping task (penalty_env.envs.sand_level): a kinematic blade levels a heap of grains
-# in a walled arena; 300-step episodes in 3D, 150 in 2D (LEVEL_EPISODE_STEPS, kept literal).
+# in a walled arena; 300-step episodes in 3D, 150 in 2D (penalty_env.envs.level.scene.LEVEL_EPISODE_STEPS,
+# kept literal).
 for _id, _dim, _steps in (("PenaltySandLevel-v0", 3, 300), ("PenaltySandLevel2D-v0", 2, 150)):
     if _id not in registry:
         register(
