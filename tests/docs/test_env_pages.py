@@ -76,6 +76,17 @@ def test_sections_follow_the_rule_and_carry_each_ids_facts(generated):
         assert f'`gymnasium.make("{env_id}")`' in page
 
 
+def test_pages_say_how_to_install_from_a_clone(generated):
+    """The package is not on PyPI: a page that names an extra says to install it from the clone."""
+    rendering = 0
+    for name, page in generated.items():
+        assert 'pip install "penalty-env' not in page, name
+        if "pygame window" in page:
+            rendering += 1
+            assert 'pip install -e ".[render]"' in page, name
+    assert rendering > 0  # the PenaltyBalls pages describe the human mode
+
+
 class _Modes(gym.Env):
     """A test env with two observation modes and one it refuses."""
 
