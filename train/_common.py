@@ -52,14 +52,47 @@ def make_env(
     return venv
 
 
+def episodes_per_world(n_episodes: int, n_envs: int) -> list[int]:
+    """How many episodes :func:`run_episodes` counts in each world: ``n_episodes`` shared out as
+    evenly as can be (as SB3's ``evaluate_policy`` does), the last worlds taking one more when
+    ``n_envs`` does not divide it."""
+    return [(n_episodes + i) // n_envs for i in range(n_envs)]
+
+
+def describe_episodes(n_episodes: int, n_envs: int, seed: int) -> str:
+    """What :func:`run_episodes` plays on ``n_envs`` worlds made by :func:`make_env` with ``seed``,
+    in words: ``"100 episodes: 20 worlds (seeds 3000000..3000019) play 5 each, one after another"``
+    (:func:`episodes_per_world`). World i is seeded ``seed + i`` once: its first episode starts from
+    that seed, its later ones continue the world's generator (autoreset, no reseed)."""
+    if not 1 <= n_envs <= n_episodes:
+        raise ValueError(f"n_envs must be between 1 and n_episodes={n_episodes}, got {n_envs}")
+    per = episodes_per_world(n_episodes, n_envs)
+    text = f"{n_episodes} episode{'s' if n_episodes != 1 else ''}: "
+    if n_envs == 1:
+        text += f"1 world (seed {seed}) plays {'them one after another' if n_episodes > 1 else 'it'}"
+    else:
+        text += f"{n_envs} worlds (seeds {seed}..{seed + n_envs - 1}) play {per[0]} each"
+        more = n_envs - per.count(per[0])  # the last worlds' one more
+        if more == 1:
+            text += f", the last (seed {seed + n_envs - 1}) one more"
+        elif more:
+            text += f", the last {more} (seeds {seed + n_envs - more}..{seed + n_envs - 1}) one more"
+        if per[-1] > 1:
+            text += ", one after another"
+    if per[-1] > 1:
+        text += "; a world's first episode starts from its seed, the next ones continue its generator"
+    return text
+
+
 def run_episodes(venv, act: Callable[[np.ndarray], np.ndarray], n_episodes: int) -> dict[str, Any]:
     """Run exactly ``n_episodes`` episodes, the same number in each world (as SB3's
-    ``evaluate_policy`` does, so short successful episodes are not over-counted).
+    ``evaluate_policy`` does, so short successful episodes are not over-counted;
+    :func:`episodes_per_world`, :func:`describe_episodes`).
 
     Returns the success rate, mean and std of the episode return, and the per-episode lists.
     """
     n_envs = venv.num_envs
-    per_env = np.array([(n_episodes + i) // n_envs for i in range(n_envs)])
+    per_env = np.array(episodes_per_world(n_episodes, n_envs))
     done_counts = np.zeros(n_envs, dtype=int)
     returns, successes = [], []
     running = np.zeros(n_envs)

@@ -5,7 +5,9 @@
     python train/evaluate.py RUN --episodes 200 --seed 3000000 --video runs/eval.gif
 
 Prints the success rate and the mean return of the trained policy and of a random policy on the
-same seeds; ``--video`` renders a GIF of the trained policy.
+same seeds, and what was played: ``--n-envs`` worlds (20) seeded ``--seed`` + i, each playing its
+share of ``--episodes`` (100: 5 each) one after another, a world's later episodes continuing its
+generator; ``--video`` renders a GIF of the trained policy.
 """
 
 from __future__ import annotations
@@ -49,8 +51,8 @@ def main(argv=None) -> dict:
     rand = C.run_episodes(probe, C.random_policy(probe.action_space, args.seed), args.episodes)
     print(
         f"{env_id}: success {trained['success_rate']:.1%}, mean return {trained['mean_return']:.3f} "
-        f"± {trained['std_return']:.3f} over {trained['episodes']} episodes (seeds {args.seed}..{args.seed + n_envs - 1}); "
-        f"random policy: success {rand['success_rate']:.1%}, mean return {rand['mean_return']:.3f}"
+        f"± {trained['std_return']:.3f} over {C.describe_episodes(trained['episodes'], n_envs, args.seed)}; "
+        f"random policy on the same worlds: success {rand['success_rate']:.1%}, mean return {rand['mean_return']:.3f}"
     )
     if args.video:
         C.record_gif(env_id, env_kwargs, C.model_policy(model, vecnorm), args.video, seed=args.seed)

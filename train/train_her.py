@@ -15,7 +15,10 @@ seeds), timed apart from the training. The run stops at the first evaluation who
 reaches ``--target`` (default 0.8), or when the budget (``--budget-min``, default 15, of wall-clock
 time; ``--clock cpu``: of the process's CPU time, the fair clock on a machine shared with other
 jobs) or ``--max-steps`` runs out; then a second held-out set (seeds ``2,000,000 + seed + i``) measures
-the final policy. The run folder (``--out``) receives:
+the final policy. On a terminal a progress bar shows the budget spent, the steps, steps/s and
+the latest held-out success (``--no-progress``: the evaluation lines instead; ``--quiet``:
+neither); off a terminal (a log file, a pipe) no bar is drawn. The run folder (``--out``)
+receives:
 
   model.zip           the trained policy (SAC; the replay buffer is not saved)
   summary.json        success_rate (the last held-out evaluation), final_success_rate (the second
@@ -74,6 +77,35 @@ SETTINGS: dict[str, Any] = dict(
 )
 POLICY_OBS = ("full", "goal-free")
 
+# What each setting's flag does (the --help text; its default is added there)
+HELP: dict[str, str] = dict(
+    env_id="the goal-conditioned id to train on (PenaltyBallsGoal-v0, -v1, Goal2D-v0, Goal2D-v1)",
+    seed="seed of the training worlds (seed + i), SAC and torch; the held-out seeds are offset from it",
+    budget_min="the run's budget in minutes of --clock time: the run stops when it is spent",
+    clock="the budget's clock: 'wall' (elapsed time) or 'cpu' (this process's CPU time, fair on a shared machine)",
+    target="stop at the first held-out evaluation whose success rate is at least this (0 to 1)",
+    max_steps="stop after this many environment steps (summed over the worlds), whatever the budget",
+    n_envs="training worlds (a DummyVecEnv of gymnasium.make envs)",
+    net_arch="hidden layer widths of the actor and the critics, comma-separated",
+    batch_size="minibatch size of each SAC update",
+    learning_rate="Adam's learning rate (actor, critics and the entropy coefficient)",
+    gamma="discount factor",
+    tau="soft update coefficient of the target critics",
+    train_freq="environment steps in each world between two rounds of updates",
+    gradient_steps="SAC updates in each round",
+    learning_starts="environment steps (summed over the worlds) before the first update (at least n_envs x "
+    "max_episode_steps: HER samples only from ended episodes)",
+    buffer_size="replay buffer capacity, transitions",
+    n_sampled_goal="relabelled goals per stored transition (HER's k)",
+    goal_selection_strategy="where HER takes the relabelled goals: 'future', 'final' or 'episode'",
+    eval_every="environment steps (summed over the worlds) between two held-out evaluations",
+    eval_episodes="held-out episodes per evaluation, one per world of the native vector env",
+    threads="torch threads",
+    reward="the env's reward: 'sparse' (-1 until the goal, 0 at it) or 'dense' (minus the distance)",
+    policy_obs="'goal-free': the env's observation without the goal fields (HER relabels the goal); "
+    "'full': with them (observe_goal=True)",
+)
+
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
@@ -82,9 +114,14 @@ def build_parser() -> argparse.ArgumentParser:
     for key, default in SETTINGS.items():
         flag = "--" + key.replace("_", "-")
         kind = type(default)
-        p.add_argument(flag, type=kind, default=default, help=f"(default: {default})")
+        p.add_argument(flag, type=kind, default=default, help=f"{HELP[key]} (default: %(default)s)")
     p.add_argument("--out", type=Path, default=None, help="run folder (default: runs/her-<env>-seed<seed>)")
-    p.add_argument("--quiet", action="store_true", help="no evaluation lines")
+    p.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no progress bar on a terminal (the evaluation lines are printed instead)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no evaluation lines")
     return p
 
 
@@ -152,15 +189,54 @@ def main(argv=None) -> dict[str, Any]:
     except ValueError as e:
         parser.error(str(e))
     out = args.out or Path("runs") / f"her-{s['env_id']}-seed{s['seed']}"
-    return train(s, out, quiet=args.quiet)
+    return train(s, out, quiet=args.quiet, progress=not args.no_progress)
 
 
-def train(s: dict[str, Any], out: Path, quiet: bool = False) -> dict[str, Any]:
+class BudgetBar:
+    """A tqdm bar over the run's budget (seconds of its clock, ``clock()``): the share spent, the
+    environment steps, steps/s and the latest held-out success (the target is on the line above). Redrawn at
+    most every ``every`` seconds of wall time; tqdm's estimate of the time left is the budget's."""
+
+    def __init__(self, budget_s: float, clock, desc: str, every: float = 0.5) -> None:
+        import shutil
+
+        from tqdm import tqdm
+
+        self.budget_s, self.clock, self.every = budget_s, clock, every
+        self.t0 = time.perf_counter()
+        self.last = -every
+        # a terminal that reports no size (0 by 0: tqdm would hide the bar) counts as 100 by 24
+        size = shutil.get_terminal_size((100, 24))
+        self.bar = tqdm(
+            total=budget_s,
+            desc=desc,
+            ncols=size.columns,
+            nrows=size.lines,
+            file=sys.stdout,
+            bar_format="{desc} {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} s of budget{postfix} [{remaining} left]",
+        )
+
+    def show(self, steps: int, success: float | None, force: bool = False) -> None:
+        now = time.perf_counter()
+        if not force and now - self.last < self.every:
+            return
+        self.last = now
+        rate = steps / max(now - self.t0, 1e-9)
+        held_out = "no evaluation yet" if success is None else f"success {success:.0%}"
+        self.bar.set_postfix_str(f"{steps:,} steps, {rate:,.0f} steps/s, {held_out}", refresh=False)
+        self.bar.update(min(self.clock(), self.budget_s) - self.bar.n)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def train(s: dict[str, Any], out: Path, quiet: bool = False, progress: bool = True) -> dict[str, Any]:
     """One run with settings ``s`` (:data:`SETTINGS`' keys), its folder written to ``out``;
-    returns the summary (summary.json)."""
+    returns the summary (summary.json). ``progress``: a progress bar when standard output is a
+    terminal (then no evaluation lines); ``quiet``: no bar and no evaluation lines."""
     import gymnasium as gym
     import torch
-    from _callbacks import TimedVecEnv
+    from _callbacks import TimedVecEnv, show_progress
     from stable_baselines3 import SAC, HerReplayBuffer
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env
@@ -222,6 +298,10 @@ def train(s: dict[str, Any], out: Path, quiet: bool = False) -> dict[str, Any]:
     curve: list[dict[str, Any]] = []
     budget_s = 60.0 * s["budget_min"]
 
+    def spent() -> float:
+        """Seconds of the budget's clock since the start."""
+        return time.process_time() - t_cpu if s["clock"] == "cpu" else time.perf_counter() - t_wall
+
     class HeldOut(BaseCallback):
         """Evaluate every ``eval_every`` steps; stop at the target or when the budget is spent."""
 
@@ -241,7 +321,9 @@ def train(s: dict[str, Any], out: Path, quiet: bool = False) -> dict[str, Any]:
             }
             curve.append(point)
             self.reached = res["success_rate"] >= s["target"]
-            if not quiet:
+            if bar is not None:
+                bar.show(point["timesteps"], res["success_rate"], force=True)
+            elif not quiet:
                 print(
                     f"[eval] steps={point['timesteps']:>8,} success={res['success_rate']:.2f} "
                     f"return={res['mean_return']:.1f} wall={point['wall_time_s']:.0f}s cpu={point['cpu_time_s']:.0f}s",
@@ -254,19 +336,23 @@ def train(s: dict[str, Any], out: Path, quiet: bool = False) -> dict[str, Any]:
                 self.evaluate()
                 if self.reached:
                     return False
-            if s["clock"] == "cpu":
-                return time.process_time() - t_cpu < budget_s
-            return time.perf_counter() - t_wall < budget_s
+            if bar is not None:
+                bar.show(int(self.num_timesteps), curve[-1]["success_rate"] if curve else None)
+            return spent() < budget_s
 
         def _on_training_end(self) -> None:
             if not curve or curve[-1]["timesteps"] != self.num_timesteps:
                 self.evaluate()
+            if bar is not None:
+                bar.close()
 
     print(
         f"training SAC+HER on {s['env_id']}: target {s['target']:.0%} held-out success within "
         f"{s['budget_min']:g} min ({s['clock']} time), {s['n_envs']} worlds, seed {s['seed']} -> {out}",
         flush=True,
     )
+    # drawn from here on, below the line above (the callbacks read it when they run)
+    bar = BudgetBar(budget_s, spent, s["env_id"]) if progress and show_progress(quiet) else None
     held_out = HeldOut()
     model.learn(total_timesteps=s["max_steps"], callback=held_out)
     wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu

@@ -1,12 +1,15 @@
 """The env pages: one Markdown page per registered penalty_env id under ``docs/envs/``, generated from the code.
 
-Run: ``python -m penalty_env.envdocs`` (writes the pages) or ``python -m penalty_env.envdocs --check``
-(writes nothing; exits 1 listing every page that is stale, missing or extra).
+Run: ``python -m penalty_env.envdocs`` (writes the pages and their pictures) or
+``python -m penalty_env.envdocs --check`` (writes nothing; exits 1 listing every page that is stale,
+missing or extra, and every picture a page shows that is missing or unreadable; ``--render`` also
+renders each picture again and compares its pixels with the committed one's).
 
 The ids are read from ``gymnasium.registry``: every id whose entry point is a string starting with
 ``penalty_env.``, in registration order, so an id added to the package gets its page at the next
-run. Each page follows the layout of Gymnasium's own env pages: the id as the title, a one-line
-summary, a table (action space, observation space, the id's registered keyword arguments,
+run. Each page follows the layout of Gymnasium's own env pages: the id as the title, a picture
+of the env (``img/<id>.png``: :mod:`.images`, one ``rgb_array`` frame after ``reset(seed=0)`` and a
+few steps of the zero action), a one-line summary, a table (action space, observation space, the id's registered keyword arguments,
 ``max_episode_steps``, the ``gymnasium.make`` and ``gymnasium.make_vec`` lines), then the sections
 of the env class's docstring (``## Description``, ``## Action Space``, ...) in the docstring's
 order, with the id's own facts added to the section they belong to:
@@ -22,13 +25,16 @@ A section the docstring lacks is added before ``## Version History`` when the id
 it. A section applies to every id unless :data:`SECTION_RULES` names it: a rule keeps it only on
 the ids it holds for (today one rule: ``## Sand`` only on ids with sand grains). The facts come
 from making the env with the id's registered keyword arguments (``gymnasium.make(id)``) and reading
-its spaces and scene; nothing is stepped (a sand id settles its bed once, kept on disk by
-:mod:`penalty_env._results`). ``docs/envs/README.md`` is the index: one row per id.
+its spaces and scene; nothing is stepped for them (a sand id settles its bed once, kept on disk
+by :mod:`penalty_env._results`); only the pictures step each id, a few steps of the zero action.
+``docs/envs/README.md`` is the index: one row per id.
 
 The output is deterministic: no dates, no addresses, NumPy's print options fixed while the bounds
-are written. ``tests/docs/test_env_pages.py`` compares the committed pages with this output, so a
-page cannot go stale unnoticed: after editing a docstring or a registration, rerun the generator
-and commit its pages.
+are written; the pictures are rewritten only when their pixels change (so another zlib, which may
+compress the same pixels into other bytes, rewrites none). ``tests/docs/test_env_pages.py``
+compares the committed pages with this output and renders one id's picture again, so a page cannot
+go stale unnoticed: after editing a docstring or a registration, rerun the generator and commit its
+pages and pictures.
 """
 
 from __future__ import annotations
@@ -41,6 +47,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from . import images as _images
 from .facts import (
     INDEX,
     MARKER,
@@ -62,6 +71,7 @@ __all__ = [
     "default_dir",
     "env_facts",
     "generate",
+    "generate_images",
     "main",
     "page_name",
     "penalty_ids",
@@ -202,6 +212,11 @@ def render_page(facts: EnvFacts) -> str:
         f"{MARKER} from `{cls.__module__}.{cls.__qualname__}`'s docstring and the registry: "
         "edit those and rerun it; `--check` fails on a stale page. -->",
         "",
+        f"![{env_id}]({_images.image_name(env_id)})",
+        "",
+        f"*`{env_id}` after `reset(seed={_images.IMAGE_SEED})` and {_images.IMAGE_STEPS} steps of the zero action "
+        '(`render_mode="rgb_array"`).*',
+        "",
         f"{class_summary(cls)} This id: {facts.variant()}.",
         "",
         "| | |",
@@ -231,7 +246,7 @@ def render_index(all_facts: Sequence[EnvFacts]) -> str:
         f"{MARKER}: rerun it after changing an env's docstring or registration. -->",
         "",
         "One page per registered id, generated from the env class's docstring (Gymnasium's layout: "
-        "description, action space, observation space per mode, rewards, starting state, episode end, "
+        "a picture of the id (`img/<id>.png`, its `rgb_array` frame), description, action space, observation space per mode, rewards, starting state, episode end, "
         "arguments, version history) and from the id's registration and the env it makes "
         "(`python -m penalty_env.envdocs`; `--check` and `tests/docs/test_env_pages.py` fail on a stale "
         f"page). Every docstring section appears on every page of its class except: {rules}.",
@@ -255,6 +270,14 @@ def generate(ids: Sequence[str] | None = None) -> dict[str, str]:
     return pages
 
 
+def generate_images(ids: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+    """Every page's picture (path under the pages' folder, ``img/<id>.png`` -> frame) for ``ids``
+    (default: :func:`penalty_ids`): :func:`.images.render_frame`, one env made and stepped per id."""
+    return {
+        _images.image_name(env_id): _images.render_frame(env_id) for env_id in (penalty_ids() if ids is None else ids)
+    }
+
+
 # ----------------------------------------------------------------------------------------------
 # Writing and checking
 # ----------------------------------------------------------------------------------------------
@@ -268,9 +291,22 @@ def default_dir() -> Path:
     return root / "docs" / "envs"
 
 
-def check(out: Path, pages: dict[str, str] | None = None) -> list[str]:
+_IMAGE_LINK = re.compile(r"!\[[^\]]*\]\(([^)\s]+)\)")
+
+
+def image_links(pages: dict[str, str]) -> list[str]:
+    """The pictures the ``pages`` show (Markdown image links), relative to the pages' folder, in order."""
+    return [link for text in pages.values() for link in _IMAGE_LINK.findall(text)]
+
+
+def check(out: Path, pages: dict[str, str] | None = None, frames: dict[str, np.ndarray] | None = None) -> list[str]:
     """The differences between the pages in ``out`` and the generated ``pages`` (default: generated
-    now), one line each (``stale: X.md``, ``missing: X.md``, ``extra: X.md``); empty when up to date."""
+    now), one line each (``stale: X.md``, ``missing: X.md``, ``extra: X.md``); empty when up to date.
+
+    The pictures: every picture a page links must be a readable PNG in ``out`` (``missing: img/X.png``,
+    ``unreadable: img/X.png (why)``), and a PNG in ``out/img`` that no page links is ``extra``. With
+    ``frames`` (:func:`generate_images`), a picture whose pixels differ from its frame is ``stale``.
+    Without them no env is rendered: the check stays as fast as the pages'."""
     pages = generate() if pages is None else pages
     problems = []
     for name, text in pages.items():
@@ -280,7 +316,48 @@ def check(out: Path, pages: dict[str, str] | None = None) -> list[str]:
         elif path.read_text(encoding="utf-8") != text:
             problems.append(f"stale: {path}")
     problems += [f"extra: {p}" for p in sorted(out.glob("*.md")) if p.name not in pages]
+    links = image_links(pages)
+    for link in links:
+        path = out / link
+        if not path.is_file():
+            problems.append(f"missing: {path}")
+            continue
+        try:
+            pixels = _images.read_png(path)
+        except ValueError as exc:
+            problems.append(f"unreadable: {path} ({exc})")
+            continue
+        if frames is not None and link in frames and not np.array_equal(pixels, frames[link]):
+            problems.append(f"stale: {path}")
+    linked = {(out / link).resolve() for link in links}
+    problems += [f"extra: {p}" for p in sorted((out / _images.IMAGE_DIR).glob("*.png")) if p.resolve() not in linked]
     return problems
+
+
+def write_images(out: Path, frames: dict[str, np.ndarray]) -> list[str]:
+    """Write each frame (``img/<id>.png`` -> pixels) as a PNG under ``out`` where the file is missing
+    or its pixels differ (same pixels: the file is left as it is, whatever zlib wrote it); delete
+    the PNGs in ``out/img`` that are not among the ``frames`` (that folder is the generator's).
+    Returns what changed, one line per file."""
+    changed = []
+    for link, frame in frames.items():
+        path = out / link
+        old, existed = None, path.is_file()
+        if existed:
+            try:
+                old = _images.read_png(path)
+            except ValueError:
+                old = None
+        if old is None or not np.array_equal(old, frame):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(_images.png_bytes(frame))
+            changed.append(f"{'updated' if existed else 'added'}: {path}")
+    wanted = {(out / link).resolve() for link in frames}
+    for path in sorted((out / _images.IMAGE_DIR).glob("*.png")):
+        if path.resolve() not in wanted:
+            path.unlink()
+            changed.append(f"removed: {path}")
+    return changed
 
 
 def write(out: Path, pages: dict[str, str] | None = None) -> list[str]:
@@ -317,15 +394,28 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument(
         "--out", type=Path, default=None, help="the pages' folder (default: docs/envs of this checkout)"
     )
+    parser.add_argument(
+        "--render",
+        action="store_true",
+        help="with --check: also render each id's picture again and compare its pixels (a few seconds "
+        "once the kernels are compiled); without it --check only reads the committed pictures",
+    )
+    parser.add_argument(
+        "--no-images",
+        action="store_true",
+        help="write the pages only, not their pictures (no env rendered)",
+    )
     args = parser.parse_args(argv)
     out = args.out if args.out is not None else default_dir()
     if args.check:
-        problems = check(out)
+        problems = check(out, frames=generate_images() if args.render else None)
         if problems:
             print("\n".join(problems))
-            print(f"{len(problems)} page(s) out of date: run python -m penalty_env.envdocs")
+            print(f"{len(problems)} file(s) out of date: run python -m penalty_env.envdocs")
             raise SystemExit(1)
-        print(f"{out}: every page up to date")
+        print(f"{out}: every page and picture up to date")
         return
     changed = write(out)
-    print("\n".join(changed) if changed else f"{out}: every page already up to date")
+    if not args.no_images:
+        changed += write_images(out, generate_images())
+    print("\n".join(changed) if changed else f"{out}: every page and picture already up to date")

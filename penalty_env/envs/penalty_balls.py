@@ -303,8 +303,9 @@ class PenaltyBallsEnv(TaskEnv):
 
     `render_mode="rgb_array"` returns a uint8 `(render_height, render_width, 3)` frame (3D: top
     view with shaded spheres, drop shadows and terrain contour lines; 2D: side view);
-    `"human"` shows it in a pygame window (`pip install "penalty-env[render]"`) at
-    `metadata["render_fps"]` (1 / `control_period`).
+    `"human"` shows it in a pygame window at `metadata["render_fps"]` (1 / `control_period`);
+    pygame comes with the `render` extra: `pip install -e ".[render]"` from the repository's root
+    (the package is installed from a clone; it is not on PyPI).
 
     ## Vectorized environment
 

@@ -18,6 +18,7 @@ import pytest
 from gymnasium import spaces
 
 from penalty_env import envdocs
+from penalty_env.envdocs.images import png_bytes, read_png
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 PAGES = ROOT / "docs" / "envs"
@@ -25,9 +26,10 @@ PAGES = ROOT / "docs" / "envs"
 
 @pytest.fixture(scope="module")
 def generated():
-    """Every page as the generator writes it now (each id made once; nothing stepped)."""
-    with warnings.catch_warnings():  # Gymnasium's "v0 is out of date" (the package's own filter is reset by pytest)
-        warnings.filterwarnings("ignore", message=r".*is out of date", category=DeprecationWarning)
+    """Every page as the generator writes it now (each id made once; nothing stepped). No "v0 is
+    out of date" note either: the package drops it for its ids even under pytest's filters."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=r".*is out of date", category=DeprecationWarning)
         return envdocs.generate()
 
 
@@ -59,6 +61,29 @@ def test_every_registered_id_has_a_page_and_every_page_a_registered_id():
         assert f"[{env_id}]({envdocs.page_name(env_id)})" in index
 
 
+def test_each_page_opens_with_its_ids_picture():
+    """As Gymnasium's pages: the picture right under the title (the generator's comment between),
+    a PNG of the id's rgb_array frame, committed beside the page."""
+    for env_id in envdocs.penalty_ids():
+        lines = (PAGES / envdocs.page_name(env_id)).read_text(encoding="utf-8").splitlines()
+        link = f"img/{env_id}.png"
+        assert lines[4] == f"![{env_id}]({link})", (env_id, lines[:6])
+        frame = read_png(PAGES / link)
+        assert frame.ndim == 3 and frame.shape[2] == 3 and frame.dtype == np.uint8
+        assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 2, env_id  # a picture, not a blank
+
+
+def test_a_picture_rendered_again_has_the_committed_pixels(generated):
+    """One id rendered again (the others are the same code; ``--check --render`` does every id):
+    the frame is the committed picture's, and the same frame twice makes the same PNG bytes."""
+    env_id = "PenaltyBalls2D-v0"
+    frames = envdocs.generate_images([env_id])
+    assert list(frames) == [f"img/{env_id}.png"]
+    assert envdocs.check(PAGES, generated, frames) == []
+    again = envdocs.generate_images([env_id])[f"img/{env_id}.png"]
+    assert png_bytes(again) == png_bytes(frames[f"img/{env_id}.png"])
+
+
 def test_readme_links_the_pages():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert re.search(r"\]\(docs/envs/(README\.md)?\)", readme)
@@ -74,6 +99,17 @@ def test_sections_follow_the_rule_and_carry_each_ids_facts(generated):
             assert f"\n## {title}\n" in page, (env_id, title)
         assert f"truncation after {spec.max_episode_steps} steps" in page
         assert f'`gymnasium.make("{env_id}")`' in page
+
+
+def test_pages_say_how_to_install_from_a_clone(generated):
+    """The package is not on PyPI: a page that names an extra says to install it from the clone."""
+    rendering = 0
+    for name, page in generated.items():
+        assert 'pip install "penalty-env' not in page, name
+        if "pygame window" in page:
+            rendering += 1
+            assert 'pip install -e ".[render]"' in page, name
+    assert rendering > 0  # the PenaltyBalls pages describe the human mode
 
 
 class _Modes(gym.Env):
@@ -148,3 +184,64 @@ def test_observation_modes_rules_and_check(tmp_path):
         f"missing: {tmp_path / 'B-v0.md'}",
         f"extra: {tmp_path / 'C-v0.md'}",
     ]
+
+
+def test_pictures_are_checked_and_written_by_their_pixels(tmp_path):
+    """``check`` names a missing, an unreadable, an extra and (given frames) a stale picture;
+    ``write_images`` rewrites a picture only when its pixels change and removes one no page shows."""
+    rng = np.random.default_rng(0)
+    frame_a = rng.integers(0, 256, (5, 7, 3), dtype=np.uint8)
+    frame_b = rng.integers(0, 256, (4, 3, 3), dtype=np.uint8)
+    assert np.array_equal(read_png_bytes(tmp_path, png_bytes(frame_a)), frame_a)  # the round trip
+    pages = {"A-v0.md": "# A-v0\n\n![A-v0](img/A-v0.png)\n", "B-v0.md": "![B](img/B-v0.png)\n"}
+    envdocs.write(tmp_path, pages)
+    img = tmp_path / "img"
+    assert envdocs.check(tmp_path, pages) == [f"missing: {img / 'A-v0.png'}", f"missing: {img / 'B-v0.png'}"]
+
+    frames = {"img/A-v0.png": frame_a, "img/B-v0.png": frame_b}
+    assert envdocs.write_images(tmp_path, frames) == [f"added: {img / 'A-v0.png'}", f"added: {img / 'B-v0.png'}"]
+    assert envdocs.check(tmp_path, pages, frames) == []
+    # the same pixels in other bytes (as another zlib would write them) are left alone
+    (img / "A-v0.png").write_bytes(png_bytes_level(frame_a, 1))
+    other_bytes = (img / "A-v0.png").read_bytes()
+    assert other_bytes != png_bytes(frame_a)
+    assert envdocs.write_images(tmp_path, frames) == []
+    assert (img / "A-v0.png").read_bytes() == other_bytes
+
+    changed = frame_a.copy()
+    changed[0, 0] ^= 1
+    assert envdocs.check(tmp_path, pages, {**frames, "img/A-v0.png": changed}) == [f"stale: {img / 'A-v0.png'}"]
+    (img / "B-v0.png").write_bytes(b"not a png")
+    (img / "C-v0.png").write_bytes(png_bytes(frame_b))
+    problems = envdocs.check(tmp_path, pages)
+    assert problems[0].startswith(f"unreadable: {img / 'B-v0.png'} (") and "not a PNG" in problems[0]
+    assert problems[1:] == [f"extra: {img / 'C-v0.png'}"]
+    assert envdocs.write_images(tmp_path, frames) == [f"updated: {img / 'B-v0.png'}", f"removed: {img / 'C-v0.png'}"]
+    assert envdocs.check(tmp_path, pages, frames) == []
+
+
+def read_png_bytes(folder, data):
+    path = folder / "roundtrip.png"
+    path.write_bytes(data)
+    try:
+        return read_png(path)
+    finally:
+        path.unlink()
+
+
+def png_bytes_level(frame, level):
+    """``png_bytes`` with another zlib level: the same pixels in other bytes."""
+    import zlib
+
+    data = png_bytes(frame)
+    signature, rest = data[:8], data[8:]
+    chunks, at = [], 0
+    while at < len(rest):
+        length = int.from_bytes(rest[at : at + 4], "big")
+        kind, body = rest[at + 4 : at + 8], rest[at + 8 : at + 8 + length]
+        if kind == b"IDAT":
+            body = zlib.compress(zlib.decompress(body), level)
+        crc = zlib.crc32(kind + body).to_bytes(4, "big")
+        chunks.append(len(body).to_bytes(4, "big") + kind + body + crc)
+        at += 12 + length
+    return signature + b"".join(chunks)

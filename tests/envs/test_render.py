@@ -4,6 +4,7 @@ Gymnasium's RecordVideo."""
 from __future__ import annotations
 
 import os
+import sys
 import time
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -73,6 +74,17 @@ def test_human_mode_opens_a_window_headless(env_id):
     assert env.unwrapped._window is not None
     env.close()
     assert env.unwrapped._window is None
+
+
+def test_human_mode_without_pygame_says_how_to_install_it(monkeypatch):
+    """The package is installed from a clone, not from PyPI: the message names the clone's extra."""
+    from gymnasium.error import DependencyNotInstalled
+
+    from penalty_env.envs.views.render import HumanWindow
+
+    monkeypatch.setitem(sys.modules, "pygame", None)  # import pygame raises ImportError
+    with pytest.raises(DependencyNotInstalled, match=r'pip install -e "\.\[render\]" from the repository'):
+        HumanWindow(64, 64, fps=25.0)
 
 
 def test_record_video_writes_a_file(tmp_path):

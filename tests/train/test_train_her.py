@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -48,6 +49,59 @@ def test_a_short_run_writes_its_run_folder(tmp_path):
     assert min(split.values()) >= 0 and summary["train_wall_time_s"] <= summary["wall_time_s"]
     # held-out seeds are disjoint from the training seeds
     assert summary["train_seeds"] == "0..1" and summary["eval_seeds"].startswith("1000000")
+
+
+def _on_a_terminal(args, timeout):
+    """Run the script with standard output and error on a pseudo-terminal; its exit code and text."""
+    import pty
+
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    master, slave = pty.openpty()
+    proc = subprocess.Popen([sys.executable, *map(str, args)], stdout=slave, stderr=slave, cwd=ROOT, env=env)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            data = os.read(master, 65536)
+        except OSError:  # the terminal closed with the process
+            break
+        if not data:
+            break
+        chunks.append(data)
+    code = proc.wait(timeout=timeout)
+    os.close(master)
+    return code, b"".join(chunks).decode(errors="replace")
+
+
+def test_a_progress_bar_on_a_terminal_and_none_off_it(tmp_path):
+    """On a terminal: tqdm's bar over the budget, with the steps, steps/s and the held-out success,
+    and no evaluation lines; off a terminal (the same run piped): the evaluation lines, no bar."""
+    args = [TRAIN, "--env-id", "PenaltyBallsGoal2D-v0", "--n-envs", 2, "--learning-starts", 300, "--max-steps", 400]
+    args += ["--eval-every", 200, "--eval-episodes", 4, "--net-arch", "16,16", "--batch-size", 32]
+    code, text = _on_a_terminal([*args, "--out", tmp_path / "tty"], timeout=600)
+    assert code == 0, text[-4000:]
+    assert "%|" in text and "s of budget" in text, text[-2000:]
+    # the last redraw: every step taken, the rate, the last evaluation's success (a whole percentage)
+    draws = re.findall(r"\| \d+/900 s of budget, ([^\r\n\[]*) \[", text)
+    assert draws and re.fullmatch(r"400 steps, [\d,]+ steps/s, success \d+%", draws[-1]), draws
+    assert "[eval]" not in text and "done in" in text
+    piped = _run([*args, "--out", tmp_path / "piped"], timeout=600)
+    assert piped.returncode == 0, piped.stderr[-4000:]
+    assert "%|" not in piped.stdout + piped.stderr and piped.stdout.count("[eval]") == 2
+    code, text = _on_a_terminal([*args, "--no-progress", "--out", tmp_path / "no-bar"], timeout=600)
+    assert code == 0 and "%|" not in text and text.count("[eval]") == 2, text[-2000:]
+
+
+def test_every_option_says_what_it_does():
+    sys.path.insert(0, str(ROOT / "train"))
+    import train_her
+
+    assert set(train_her.HELP) == set(train_her.SETTINGS)
+    options = [a for a in train_her.build_parser()._actions if a.option_strings and a.dest != "help"]
+    assert len(options) == len(train_her.SETTINGS) + 3  # and --out, --no-progress, --quiet
+    for action in options:
+        words = (action.help or "").split("(default:")[0].strip()
+        assert len(words.split()) >= 2, action.option_strings
 
 
 def test_bad_settings_are_refused_naming_the_setting():

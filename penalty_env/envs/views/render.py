@@ -98,7 +98,10 @@ class HumanWindow:
         except ImportError as exc:  # pragma: no cover - depends on the install
             from gymnasium.error import DependencyNotInstalled
 
-            raise DependencyNotInstalled('render_mode="human" needs pygame: pip install "penalty-env[render]"') from exc
+            raise DependencyNotInstalled(
+                'render_mode="human" needs pygame: pip install -e ".[render]" from the repository\'s root '
+                "(or pip install pygame)"
+            ) from exc
         self._pygame = pygame
         pygame.display.init()
         pygame.display.set_caption(title)

@@ -1,0 +1,74 @@
+"""``train/evaluate.py``'s report says what is played: how many worlds, their seeds and how many
+episodes each plays, as ``run_episodes`` plays them (no training run: a stand-in VecEnv)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "train"))
+
+import _common as C  # noqa: E402
+
+
+class _Worlds:
+    """A VecEnv stand-in: world i ends an episode every ``lengths[i]`` steps; ``ended[i]`` counts them."""
+
+    def __init__(self, lengths):
+        self.lengths = np.asarray(lengths)
+        self.num_envs = len(lengths)
+        self.t = np.zeros(self.num_envs, int)
+        self.ended = np.zeros(self.num_envs, int)
+
+    def reset(self):
+        return np.zeros((self.num_envs, 1), np.float32)
+
+    def step(self, actions):
+        self.t += 1
+        dones = self.t % self.lengths == 0
+        self.ended += dones
+        infos = [{"is_success": True} for _ in range(self.num_envs)]
+        return self.reset(), np.ones(self.num_envs), dones, infos
+
+
+@pytest.mark.parametrize(("n_episodes", "n_envs"), [(100, 20), (101, 20), (119, 20), (10, 1), (20, 20), (7, 3)])
+def test_the_report_names_the_worlds_seeds_and_episodes_each_that_run_episodes_plays(n_episodes, n_envs):
+    seed = 3_000_000
+    venv = _Worlds(lengths=[1 + (i % 4) for i in range(n_envs)])  # short and long episodes side by side
+    result = C.run_episodes(venv, lambda obs: np.zeros((len(obs), 1)), n_episodes)
+    per = C.episodes_per_world(n_episodes, n_envs)
+    assert result["episodes"] == n_episodes == sum(per)
+    # every world played at least its share (the run stops when the slowest has its count) ...
+    assert (venv.ended >= per).all()
+    # ... and the shares are even: at most one apart, the extra ones on the last worlds
+    assert max(per) - min(per) <= 1 and per == sorted(per)
+    text = C.describe_episodes(n_episodes, n_envs, seed)
+    assert text.startswith(f"{n_episodes} episodes: ")
+    if n_envs == 1:
+        assert f"1 world (seed {seed}) plays them one after another" in text
+    else:
+        assert f"{n_envs} worlds (seeds {seed}..{seed + n_envs - 1}) play {per[0]} each" in text
+        more = per.count(per[0] + 1)
+        if more > 1:
+            assert f"the last {more} (seeds {seed + n_envs - more}..{seed + n_envs - 1}) one more" in text
+        elif more == 1:
+            assert f"the last (seed {seed + n_envs - 1}) one more" in text
+        else:
+            assert "one more" not in text
+    assert ("one after another" in text) == (max(per) > 1)
+
+
+def test_the_default_report_says_20_worlds_play_5_episodes_each():
+    """evaluate.py's defaults (100 episodes, 20 worlds, first seed 3,000,000), in the issue's words."""
+    assert C.describe_episodes(100, 20, 3_000_000) == (
+        "100 episodes: 20 worlds (seeds 3000000..3000019) play 5 each, one after another; "
+        "a world's first episode starts from its seed, the next ones continue its generator"
+    )
+
+
+def test_more_worlds_than_episodes_is_refused():
+    with pytest.raises(ValueError, match="n_envs must be between 1 and n_episodes=5, got 6"):
+        C.describe_episodes(5, 6, 0)
