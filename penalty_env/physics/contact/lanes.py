@@ -194,6 +194,17 @@ def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
     par = table.shape[s]
     sg, a0, a1, a2 = par[SIGN], par[P0], par[P0 + 1], par[P0 + 2]
     clip = model.no_tension
+    # first the overlaps alone: a lane touches only where pen > 0, and where none does the shape
+    # adds nothing (the loop below would add +0.0 to every lane's sum) and is skipped: an arena's
+    # walls, which most blocks' balls are far from, cost this loop instead of the whole law
+    hits = 0
+    for w in range(W):
+        p0, p1, p2 = X[i, 0, w], X[i, 1, w], (X[i, 2, w] if D == 3 else 0.0)
+        q0, q1, q2 = to_local(pose, p0, p1, p2, D)
+        phi = sdf(q0, q1, q2, a0, a1, a2, D)[0]
+        hits += 1 if lane(ri, w) - sg * phi > 0.0 else 0
+    if hits == 0:
+        return
     for w in range(W):
         r = lane(ri, w)
         ks, kd, mu, kf = lane(model.ks_terrain, w), lane(model.kd_terrain, w), lane(model.mu, w), lane(model.kf, w)
