@@ -77,6 +77,29 @@ def test_bumps_are_redrawn_at_every_reset_from_the_seed_and_have_the_chosen_heig
     assert np.array_equal(flat_env.unwrapped.scene.world.shape_heights(0), flat.terrain.bowl_floor)
 
 
+@pytest.mark.parametrize("dim", [3, 2])
+def test_bumps_of_many_worlds_drawn_at_once_are_each_worlds_own_draw_bit_for_bit(dim):
+    """A reset draws every reset world's bumps in one call (in chunks; per-world roughness, one of
+    them 0: no bumps): bit for bit each world's own draw from its generator, which is left where
+    that draw leaves it."""
+    from penalty_env.envs.terrains.bumpy import DRAW_CHUNK, BumpyTerrain
+
+    terrain = BumpyTerrain(dim, 4.0, 0.1)  # (a bowl wider than the field's corners)
+    k = DRAW_CHUNK + 5
+    rough = np.random.default_rng(1).uniform(0.02, 0.2, k)
+    rough[3] = 0.0
+    mine = [np.random.default_rng(100 + t) for t in range(k)]
+    theirs = [np.random.default_rng(100 + t) for t in range(k)]
+    together = terrain.draw(mine, rough)
+    one_by_one = np.array([terrain.bump_heights(rng, float(r)) for rng, r in zip(theirs, rough)])
+    assert together.shape == (k,) + terrain.bowl_floor.shape
+    assert np.array_equal(together.view(np.int64), one_by_one.view(np.int64))
+    assert np.isfinite(together).all()
+    assert np.array_equal(together[3], terrain.bowl_floor) and not np.array_equal(together[4], terrain.bowl_floor)
+    assert [a.random() for a in mine] == [b.random() for b in theirs]
+    assert terrain.draw([], np.zeros(0)).shape == (0,) + terrain.bowl_floor.shape
+
+
 @pytest.mark.parametrize("env_id", IDS)
 def test_vector_env_on_bumps_equals_single_envs_seeded_seed_plus_i(env_id):
     n, k = 3, IDS[env_id] - 1

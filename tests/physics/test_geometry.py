@@ -602,6 +602,30 @@ def test_kinematic_rotation_is_exact_and_set_heights_changes_one_world():
         )
 
 
+def test_shape_distances_of_many_worlds_are_each_worlds_shape_distance_bit_for_bit():
+    """World.shape_distances: one call for the points of several worlds, each world's own height
+    field (and a static bowl, shared), bit for bit shape_distance of each world in turn; points
+    that do not match the worlds are refused naming the argument."""
+    rng = np.random.default_rng(3)
+    hf = HeightField(rng.uniform(0.0, 0.1, (6, 5)), 0.4, origin=(-1.0, -0.8))
+    bowl = Bowl((0.0, 0.0, 2.0), 2.0)
+    w = World(np.zeros((4, 1, 3)) + np.array([0, 0, 0.5]), [RADIUS], [MASS], terrain=(hf, bowl), ks=KS, dt=1e-3)
+    w.set_heights(0, rng.uniform(0.0, 0.2, (4, 6, 5)))
+    worlds = np.array([3, 0, 2])
+    pts = rng.uniform(-1.5, 1.5, (3, 7, 3))
+    for shape in (0, 1):
+        phi, normal = w.shape_distances(shape, pts, worlds)
+        assert phi.shape == (3, 7) and normal.shape == (3, 7, 3)
+        for t, b in enumerate(worlds):
+            one_phi, one_normal = w.shape_distance(shape, pts[t], world=int(b))
+            assert np.array_equal(phi[t], one_phi) and np.array_equal(normal[t], one_normal)
+    assert not np.array_equal(w.shape_distances(0, pts[:1], [3])[0], w.shape_distances(0, pts[:1], [0])[0])
+    with pytest.raises(ValueError, match=r"points must have shape \(2, \.\.\., 3\)"):
+        w.shape_distances(0, pts, [0, 1])
+    with pytest.raises(ValueError, match="worlds must index"):
+        w.shape_distances(0, pts, [0, 1, 9])
+
+
 # --------------------------------------------------------------------------------------------
 # Bad arguments
 # --------------------------------------------------------------------------------------------

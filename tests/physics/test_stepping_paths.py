@@ -209,6 +209,42 @@ def test_static_planes_and_boxes_on_the_lanes_match_the_scalar_path_bit_for_bit_
     assert not np.array_equal(out[0].positions[3], out[2].positions[3])  # the tilt took effect
 
 
+@pytest.mark.parametrize("d", [2, 3])
+def test_walls_no_lane_of_a_block_touches_are_skipped_bit_for_bit(d):
+    """The lanes skip a static plane that no lane of the block overlaps (an arena's walls, far from
+    most blocks' balls): the first block's balls stay near the centre, clear of the walls, while
+    the second block's are thrown at them (some lanes touch a wall, the others not, and that
+    changes from step to step); both bit for bit the scalar path."""
+    from penalty_env.physics import Plane
+
+    B, n, r = 2 * lanes.LANES, 2, 0.05
+    rng = np.random.default_rng(10 + d)
+    up = np.eye(d)[-1]
+    walls = [Plane(tuple(-s * 0.5 * e), tuple(s * e)) for e in np.eye(d)[:-1] for s in (1.0, -1.0)]
+    terrain = (Plane((0.0,) * d, tuple(up)), *walls)
+    x = np.zeros((B, n, d))
+    x[..., :-1] = rng.uniform(-0.1, 0.1, (B, n, d - 1))
+    x[:, 1, 0] += 0.25  # (the balls apart)
+    x[..., -1] = r - 0.001
+    v = np.zeros((B, n, d))
+    v[lanes.LANES :, :, :-1] = rng.normal(0.0, 1.5, (lanes.LANES, n, d - 1))
+    kw = dict(terrain=terrain, gravity=tuple(-9.81 * up), ks=2e3, kd=3.0, mu=0.3, broadphase="all_pairs", dt=1e-3)
+    out, reached = [], []
+    for stepping in ("lanes", "scalar"):
+        w = World(x, [r] * n, [1.0] * n, velocities=v, stepping=stepping, start_check=False, **kw)
+        near = np.zeros(B, dtype=bool)
+        for _ in range(40):
+            w.step(10)
+            near |= np.any(np.abs(w.positions[..., :-1]) > 0.5 - r, axis=(1, 2))
+        out.append(w)
+        reached.append(near)
+    assert not reached[0][: lanes.LANES].any() and 0 < reached[0][lanes.LANES :].sum() < lanes.LANES
+    assert np.array_equal(reached[0], reached[1])
+    assert np.isfinite(out[0].positions).all()
+    assert np.array_equal(out[0].positions, out[1].positions)
+    assert np.array_equal(out[0].velocities, out[1].velocities)
+
+
 def test_auto_stepping_takes_the_lanes_only_where_they_pay():
     x, _, radii, masses, bowl = balls_in_bowl(4, 3, worlds=LANES_MIN_WORLDS, seed=0, radius=0.08)
     kw = dict(terrain=bowl, ks=2e3, kd=3.0, dt=1e-4)

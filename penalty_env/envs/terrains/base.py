@@ -162,13 +162,11 @@ class Terrain:
         """Heights of centres resting on the terrain at horizontal positions ``h`` (k, m, d - 1) of
         ``worlds`` (``rest``: each resting centre's distance from the surface along its normal,
         (m,) or (k, m)): by the World's own distance (``world.shape_distance``, exact where phi is
-        linear in z along the vertical, as for planes and height fields)."""
-        z = np.empty(h.shape[:-1])
-        for t, b in enumerate(worlds):
-            ground = np.concatenate([h[t], np.zeros((h.shape[1], 1))], axis=-1)
-            phi0, normal = world.shape_distance(0, ground, world=int(b))
-            z[t] = ((rest if rest.ndim == 1 else rest[t]) - phi0) / normal[:, -1]
-        return z
+        linear in z along the vertical, as for planes and height fields; ``world.shape_distances``:
+        every world's in one call)."""
+        ground = np.concatenate([h, np.zeros(h.shape[:-1] + (1,))], axis=-1)
+        phi0, normal = world.shape_distances(0, ground, worlds)
+        return (rest - phi0) / normal[..., -1]
 
     def heights(self, world: Any) -> TerrainHeights:
         """The terrain's picture (:class:`TerrainHeights`) for ``world`` (its live tables)."""

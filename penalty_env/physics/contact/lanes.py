@@ -181,7 +181,7 @@ def shared_statics(table, worlds, W, D):
 
 
 @njit
-def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
+def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf, prepass):
     """Shape s, static and at ``pose`` in every world of the block, of the primitive kind whose
     local distance is ``sdf`` (:func:`..geometry.sdf.sdf_plane`, ``sdf_box``: inlined, branches
     LLVM turns into selects), against sphere i in every lane, its force summed into G: the
@@ -194,6 +194,18 @@ def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
     par = table.shape[s]
     sg, a0, a1, a2 = par[SIGN], par[P0], par[P0 + 1], par[P0 + 2]
     clip = model.no_tension
+    if prepass:
+        # first the overlaps alone: a lane touches only where pen > 0, and where none does the
+        # shape adds nothing (the loop below would add +0.0 to every lane's sum, which leaves it as
+        # it was) and is skipped
+        hits = 0
+        for w in range(W):
+            p0, p1, p2 = X[i, 0, w], X[i, 1, w], (X[i, 2, w] if D == 3 else 0.0)
+            q0, q1, q2 = to_local(pose, p0, p1, p2, D)
+            phi = sdf(q0, q1, q2, a0, a1, a2, D)[0]
+            hits += 1 if lane(ri, w) - sg * phi > 0.0 else 0
+        if hits == 0:
+            return
     for w in range(W):
         r = lane(ri, w)
         ks, kd, mu, kf = lane(model.ks_terrain, w), lane(model.kd_terrain, w), lane(model.mu, w), lane(model.kf, w)
@@ -214,6 +226,55 @@ def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
 
 
 @njit
+def _span(i, k, X, W):
+    """The least and the largest coordinate k of ball i's centres over the block's lanes."""
+    lo = X[i, k, 0]
+    hi = X[i, k, 0]
+    for w in range(1, W):
+        x = X[i, k, w]
+        lo = x if x < lo else lo
+        hi = x if x > hi else hi
+    return lo, hi
+
+
+@njit
+def _block_box(i, X, W, ri, D):
+    """The box of ball i's centres over the block's lanes, (lo0, lo1, lo2, hi0, hi1, hi2), and
+    the largest radius."""
+    lo0, hi0 = _span(i, 0, X, W)
+    lo1, hi1 = _span(i, 1, X, W)
+    lo2, hi2 = _span(i, 2, X, W) if D == 3 else (0.0, 0.0)
+    r = lane(ri, 0)
+    for w in range(1, W):
+        r = max(r, lane(ri, w))
+    return lo0, lo1, lo2, hi0, hi1, hi2, r
+
+
+@njit
+def _plane_clear(pose, sg, box, D):
+    """Whether the static plane at ``pose`` (sign ``sg``) is clear of every ball whose centre lies
+    in the box and whose radius is at most r (``box``: :func:`_block_box`'s), with room to spare
+    for rounding: then no lane's pen = r - phi computed by :func:`_static_lanes` is > 0 (phi is
+    linear in the centre, its rounding error below 5 ulp of sum |a_k| (|p_k| + |c_k|); the margin
+    is 1e-12 of that sum), and the plane adds nothing to the block. False where the box or the
+    pose is not finite (NaN compares false; an infinite side makes the margin infinite)."""
+    r = box[6]
+    low = 0.0
+    size = 1.0
+    for k in range(D):
+        a = sg * pose[D + k * D + D - 1]  # phi = sum_k a_k (p_k - c_k): the rotation's last column
+        c = pose[k]
+        lo = box[k]
+        hi = box[3 + k]
+        if a > 0.0:
+            low += a * (lo - c)
+        elif a < 0.0:
+            low += a * (hi - c)
+        size += abs(a) * (max(abs(lo), abs(hi)) + abs(c))
+    return low > r + 1e-12 * size
+
+
+@njit
 def summed_terrain_lanes(i, X, V, A, G, W, worlds, statics, model, g):
     """Every other shape against sphere i in every lane, summed in the (D, LANES) buffer G in the
     table's order and then added to A, as the scalar :func:`.terrain.summed_terrain` sums them
@@ -226,14 +287,21 @@ def summed_terrain_lanes(i, X, V, A, G, W, worlds, statics, model, g):
     for k in range(D):
         for w in range(W):
             G[k, w] = 0.0
+    box = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)  # the block's box, taken at the first static plane
     for s in range(table.kind.shape[0]):
         if is_direct(table, s):
             continue
         if s < 64 and (statics >> s) & 1:
+            pose = table.pose[worlds[0], s]
             if table.kind[s] == PLANE:
-                _static_lanes(i, s, X, V, G, W, table.pose[worlds[0], s], model, g, sdf_plane)
+                # a plane clear of the block's box adds nothing (an arena's walls, which most
+                # blocks' balls are far from, cost this test instead of the law in every lane)
+                if box[6] < 0.0:
+                    box = _block_box(i, X, W, ri, D)
+                if not _plane_clear(pose, table.shape[s, SIGN], box, D):
+                    _static_lanes(i, s, X, V, G, W, pose, model, g, sdf_plane, False)
             else:
-                _static_lanes(i, s, X, V, G, W, table.pose[worlds[0], s], model, g, sdf_box)
+                _static_lanes(i, s, X, V, G, W, pose, model, g, sdf_box, True)
             continue
         for w in range(W):
             b = worlds[w]

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from ... import _validate as V
-from ..geometry.evaluate import evaluate
+from ..geometry.evaluate import evaluate, evaluate_shape
 from ..geometry.heightfield import HeightField
 from ..geometry.table import DIRECT, INDEX, MOVING, ShapeTable, pose_columns
 from .checks import world_index
@@ -197,6 +197,30 @@ class TerrainView:
         else:
             ev = self.evaluate(b, flat)
             phi, normal = ev[:, row, 0], ev[:, row, 1 : 1 + self.dim]
+        return phi.reshape(pts.shape[:-1]), normal.reshape(pts.shape)
+
+    def shape_distances(self, shape: int, points: Any, worlds: Any) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`shape_distance` in many worlds at once: ``points`` (k, ..., d) of the worlds
+        ``worlds`` (k,), world ``worlds[t]``'s in ``points[t]``; ``(phi (k, ...), normal (k, ..., d))``,
+        bit for bit :meth:`shape_distance` of each world in turn, in one compiled call."""
+        k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
+        if worlds is None:
+            raise ValueError("worlds must be integer world indices (one per row of points), got None")
+        idx = self._world_index(worlds)
+        pts = V.real_array("points", points)
+        if pts.ndim < 2 or pts.shape[0] != idx.size or pts.shape[-1] != self.dim:
+            raise ValueError(
+                f"points must have shape ({idx.size}, ..., {self.dim}) (one row per world of worlds), got {pts.shape}"
+            )
+        flat = np.ascontiguousarray(pts.reshape(idx.size, -1, self.dim))
+        row = self._rows[k]
+        if self._table.flags[row] & DIRECT:  # (a static sphere or bowl: the same in every world)
+            both = flat.reshape(-1, self.dim)
+            phi, normal = self.terrain[k].phi(both), self.terrain[k].grad_phi(both)
+        else:
+            ev = np.zeros(flat.shape[:2] + (4,))
+            evaluate_shape(self._table, row, idx, flat, ev, self.gravity)
+            phi, normal = ev[..., 0], ev[..., 1 : 1 + self.dim]
         return phi.reshape(pts.shape[:-1]), normal.reshape(pts.shape)
 
     def _points(self, points: Any) -> tuple[np.ndarray, np.ndarray]:

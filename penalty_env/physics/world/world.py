@@ -649,6 +649,12 @@ class World:
         ``points`` (..., d): ``(phi (...), normal (..., d))``."""
         return self.terrain_view.shape_distance(shape, points, world)
 
+    def shape_distances(self, shape: int, points: Any, worlds: Any) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`shape_distance` in many worlds at once: ``points`` (k, ..., d) of the worlds
+        ``worlds`` (k,), world ``worlds[t]``'s in ``points[t]``; ``(phi (k, ...), normal (k, ..., d))``,
+        bit for bit :meth:`shape_distance` of each world in turn, in one compiled call."""
+        return self.terrain_view.shape_distances(shape, points, worlds)
+
     def terrain_distance(self, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """The terrain's signed distance at ``points`` (..., d) in one world, the smallest phi of
         its shapes at their current poses (the union of their solids), and the outward normal of
