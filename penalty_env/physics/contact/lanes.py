@@ -181,7 +181,7 @@ def shared_statics(table, worlds, W, D):
 
 
 @njit
-def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf, prepass):
+def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
     """Shape s, static and at ``pose`` in every world of the block, of the primitive kind whose
     local distance is ``sdf`` (:func:`..geometry.sdf.sdf_plane`, ``sdf_box``: inlined, branches
     LLVM turns into selects), against sphere i in every lane, its force summed into G: the
@@ -194,18 +194,6 @@ def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf, prepass):
     par = table.shape[s]
     sg, a0, a1, a2 = par[SIGN], par[P0], par[P0 + 1], par[P0 + 2]
     clip = model.no_tension
-    if prepass:
-        # first the overlaps alone: a lane touches only where pen > 0, and where none does the
-        # shape adds nothing (the loop below would add +0.0 to every lane's sum, which leaves it as
-        # it was) and is skipped
-        hits = 0
-        for w in range(W):
-            p0, p1, p2 = X[i, 0, w], X[i, 1, w], (X[i, 2, w] if D == 3 else 0.0)
-            q0, q1, q2 = to_local(pose, p0, p1, p2, D)
-            phi = sdf(q0, q1, q2, a0, a1, a2, D)[0]
-            hits += 1 if lane(ri, w) - sg * phi > 0.0 else 0
-        if hits == 0:
-            return
     for w in range(W):
         r = lane(ri, w)
         ks, kd, mu, kf = lane(model.ks_terrain, w), lane(model.kd_terrain, w), lane(model.mu, w), lane(model.kf, w)
@@ -251,26 +239,30 @@ def _block_box(i, X, W, ri, D):
 
 
 @njit
+def _plane_axis(pose, sg, k, lo, hi, D):
+    """Axis k's share of :func:`_plane_clear`'s least phi over the box and of its scale."""
+    a = sg * pose[D + k * D + D - 1]  # phi = sum_k a_k (p_k - c_k): the rotation's last column
+    c = pose[k]
+    low = a * (lo - c) if a > 0.0 else (a * (hi - c) if a < 0.0 else 0.0)
+    return low, abs(a) * (max(abs(lo), abs(hi)) + abs(c))
+
+
+@njit
 def _plane_clear(pose, sg, box, D):
     """Whether the static plane at ``pose`` (sign ``sg``) is clear of every ball whose centre lies
     in the box and whose radius is at most r (``box``: :func:`_block_box`'s), with room to spare
     for rounding: then no lane's pen = r - phi computed by :func:`_static_lanes` is > 0 (phi is
     linear in the centre, its rounding error below 5 ulp of sum |a_k| (|p_k| + |c_k|); the margin
     is 1e-12 of that sum), and the plane adds nothing to the block. False where the box or the
-    pose is not finite (NaN compares false; an infinite side makes the margin infinite)."""
-    r = box[6]
-    low = 0.0
-    size = 1.0
-    for k in range(D):
-        a = sg * pose[D + k * D + D - 1]  # phi = sum_k a_k (p_k - c_k): the rotation's last column
-        c = pose[k]
-        lo = box[k]
-        hi = box[3 + k]
-        if a > 0.0:
-            low += a * (lo - c)
-        elif a < 0.0:
-            low += a * (hi - c)
-        size += abs(a) * (max(abs(lo), abs(hi)) + abs(c))
+    pose is not finite (NaN compares false; an infinite side makes the margin infinite). (The box
+    is read at constant indices only: a tuple indexed at a run-time index is lowered as a global
+    constant array, which keeps Numba from caching the kernels that call this.)"""
+    lo0, lo1, lo2, hi0, hi1, hi2, r = box
+    l0, s0 = _plane_axis(pose, sg, 0, lo0, hi0, D)
+    l1, s1 = _plane_axis(pose, sg, 1, lo1, hi1, D)
+    l2, s2 = _plane_axis(pose, sg, 2, lo2, hi2, D) if D == 3 else (0.0, 0.0)
+    low = l0 + l1 + l2
+    size = 1.0 + s0 + s1 + s2
     return low > r + 1e-12 * size
 
 
@@ -299,9 +291,9 @@ def summed_terrain_lanes(i, X, V, A, G, W, worlds, statics, model, g):
                 if box[6] < 0.0:
                     box = _block_box(i, X, W, ri, D)
                 if not _plane_clear(pose, table.shape[s, SIGN], box, D):
-                    _static_lanes(i, s, X, V, G, W, pose, model, g, sdf_plane, False)
+                    _static_lanes(i, s, X, V, G, W, pose, model, g, sdf_plane)
             else:
-                _static_lanes(i, s, X, V, G, W, pose, model, g, sdf_box, True)
+                _static_lanes(i, s, X, V, G, W, pose, model, g, sdf_box)
             continue
         for w in range(W):
             b = worlds[w]
