@@ -97,6 +97,12 @@ def test_a_progress_bar_on_a_terminal_and_none_off_it(tmp_path):
     piped = _run([*args, "--out", tmp_path / "piped"], timeout=600)
     assert piped.returncode == 0, piped.stderr[-4000:]
     assert "%|" not in piped.stdout + piped.stderr and piped.stdout.count("[eval]") == 2
+
+
+@pytest.mark.slow  # (a third training run: the bar's two cases above stay in the default run)
+def test_no_progress_on_a_terminal_prints_the_evaluation_lines(tmp_path):
+    args = [TRAIN, "--env-id", "PenaltyBallsGoal2D-v0", "--n-envs", 2, "--learning-starts", 300, "--max-steps", 400]
+    args += ["--eval-every", 200, "--eval-episodes", 4, "--net-arch", "16,16", "--batch-size", 32]
     code, text = _on_a_terminal([*args, "--no-progress", "--out", tmp_path / "no-bar"], timeout=600)
     assert code == 0 and "%|" not in text and text.count("[eval]") == 2, text[-2000:]
 
