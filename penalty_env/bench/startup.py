@@ -85,7 +85,7 @@ def cases(quick: bool = False) -> list[Case]:
 
     import penalty_env  # noqa: F401
 
-    from ..envs.params import CHOICE_PARAMETERS
+    from ..envs.balls.params import CHOICE_PARAMETERS
 
     terrains = CHOICE_PARAMETERS["terrain"][1]
     seconds = tuple(
