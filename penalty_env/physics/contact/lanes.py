@@ -214,59 +214,6 @@ def _static_lanes(i, s, X, V, G, W, pose, model, g, sdf):
 
 
 @njit
-def _span(i, k, X, W):
-    """The least and the largest coordinate k of ball i's centres over the block's lanes."""
-    lo = X[i, k, 0]
-    hi = X[i, k, 0]
-    for w in range(1, W):
-        x = X[i, k, w]
-        lo = x if x < lo else lo
-        hi = x if x > hi else hi
-    return lo, hi
-
-
-@njit
-def _block_box(i, X, W, ri, D):
-    """The box of ball i's centres over the block's lanes, (lo0, lo1, lo2, hi0, hi1, hi2), and
-    the largest radius."""
-    lo0, hi0 = _span(i, 0, X, W)
-    lo1, hi1 = _span(i, 1, X, W)
-    lo2, hi2 = _span(i, 2, X, W) if D == 3 else (0.0, 0.0)
-    r = lane(ri, 0)
-    for w in range(1, W):
-        r = max(r, lane(ri, w))
-    return lo0, lo1, lo2, hi0, hi1, hi2, r
-
-
-@njit
-def _plane_axis(pose, sg, k, lo, hi, D):
-    """Axis k's share of :func:`_plane_clear`'s least phi over the box and of its scale."""
-    a = sg * pose[D + k * D + D - 1]  # phi = sum_k a_k (p_k - c_k): the rotation's last column
-    c = pose[k]
-    low = a * (lo - c) if a > 0.0 else (a * (hi - c) if a < 0.0 else 0.0)
-    return low, abs(a) * (max(abs(lo), abs(hi)) + abs(c))
-
-
-@njit
-def _plane_clear(pose, sg, box, D):
-    """Whether the static plane at ``pose`` (sign ``sg``) is clear of every ball whose centre lies
-    in the box and whose radius is at most r (``box``: :func:`_block_box`'s), with room to spare
-    for rounding: then no lane's pen = r - phi computed by :func:`_static_lanes` is > 0 (phi is
-    linear in the centre, its rounding error below 5 ulp of sum |a_k| (|p_k| + |c_k|); the margin
-    is 1e-12 of that sum), and the plane adds nothing to the block. False where the box or the
-    pose is not finite (NaN compares false; an infinite side makes the margin infinite). (The box
-    is read at constant indices only: a tuple indexed at a run-time index is lowered as a global
-    constant array, which keeps Numba from caching the kernels that call this.)"""
-    lo0, lo1, lo2, hi0, hi1, hi2, r = box
-    l0, s0 = _plane_axis(pose, sg, 0, lo0, hi0, D)
-    l1, s1 = _plane_axis(pose, sg, 1, lo1, hi1, D)
-    l2, s2 = _plane_axis(pose, sg, 2, lo2, hi2, D) if D == 3 else (0.0, 0.0)
-    low = l0 + l1 + l2
-    size = 1.0 + s0 + s1 + s2
-    return low > r + 1e-12 * size
-
-
-@njit
 def summed_terrain_lanes(i, X, V, A, G, W, worlds, statics, model, g):
     """Every other shape against sphere i in every lane, summed in the (D, LANES) buffer G in the
     table's order and then added to A, as the scalar :func:`.terrain.summed_terrain` sums them
@@ -279,21 +226,14 @@ def summed_terrain_lanes(i, X, V, A, G, W, worlds, statics, model, g):
     for k in range(D):
         for w in range(W):
             G[k, w] = 0.0
-    box = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)  # the block's box, taken at the first static plane
     for s in range(table.kind.shape[0]):
         if is_direct(table, s):
             continue
         if s < 64 and (statics >> s) & 1:
-            pose = table.pose[worlds[0], s]
             if table.kind[s] == PLANE:
-                # a plane clear of the block's box adds nothing (an arena's walls, which most
-                # blocks' balls are far from, cost this test instead of the law in every lane)
-                if box[6] < 0.0:
-                    box = _block_box(i, X, W, ri, D)
-                if not _plane_clear(pose, table.shape[s, SIGN], box, D):
-                    _static_lanes(i, s, X, V, G, W, pose, model, g, sdf_plane)
+                _static_lanes(i, s, X, V, G, W, table.pose[worlds[0], s], model, g, sdf_plane)
             else:
-                _static_lanes(i, s, X, V, G, W, pose, model, g, sdf_box)
+                _static_lanes(i, s, X, V, G, W, table.pose[worlds[0], s], model, g, sdf_box)
             continue
         for w in range(W):
             b = worlds[w]
