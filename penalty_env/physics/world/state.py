@@ -99,8 +99,7 @@ class StateView:
 
     @property
     def angular_velocities(self) -> np.ndarray:
-        """Current angular velocities, ``(n, 3)`` in 3D and ``(n, 1)`` in 2D (about the axis out of
-        the plane), ``(B, n, .)`` when batched (read-only view; zeros when ``rotation=False``)."""
+        """``World.angular_velocities`` (its docstring says what it does)."""
         if self._spin is None:
             R = 3 if self.dim == 3 else 1
             return self._view(np.zeros(self._state.positions.shape[:2] + (R,)))
@@ -113,9 +112,7 @@ class StateView:
     def set_state(
         self, positions: Any = None, velocities: Any = None, worlds: Any = None, angular_velocities: Any = None
     ) -> None:
-        """Overwrite positions, velocities and/or (with rotation) angular velocities, of all worlds or
-        of the worlds indexed by ``worlds`` (then the arrays are ``(len(worlds), n, .)``). New
-        positions end every contact's tangential history in those worlds."""
+        """``World.set_state`` (its docstring says what it does)."""
         if worlds is not None and np.asarray(worlds).dtype.kind not in "iu":
             raise ValueError(f"worlds must be integer world indices, got dtype {np.asarray(worlds).dtype}")
         chosen = np.arange(self.n_worlds) if worlds is None else np.atleast_1d(np.asarray(worlds, dtype=np.int64))
@@ -150,17 +147,14 @@ class StateView:
         self._runner.forget(idx)
 
     def invalidate_cache(self, worlds: Any = None) -> None:
-        """Forget what was derived from the state (velocity Verlet's cached acceleration, a large
-        world's neighbour list and storage order), after writing ``state``'s arrays directly."""
+        """``World.invalidate_cache`` (its docstring says what it does)."""
         self._runner.forget(slice(None) if worlds is None else worlds)
 
     def _per_world(self, out: np.ndarray) -> Any:
         return out.copy() if self._batched else float(out[0])
 
     def energy(self) -> Any:
-        """Kinetic + gravitational + penalty-spring potential (1/2 ks overlap^2), per world; with
-        rotation also the rotational kinetic energy (1/2 I w^2) and the tangential springs' (1/2 kt
-        xi^2, the history model)."""
+        """``World.energy`` (its docstring says what it does)."""
         x, v = self._state
         buf = self._runner.scratch.partners
         _diagnostics.world_energy(x, v, self._grid, buf, self._model, self.gravity, self._scalar)
@@ -191,8 +185,7 @@ class StateView:
         return p if self._batched else p[0]
 
     def angular_momentum(self) -> np.ndarray:
-        """Total angular momentum about the origin per world, sum of m x cross v + I w: ``(3,)`` in
-        3D, ``(1,)`` in 2D (about the axis out of the plane), ``(B, .)`` when batched."""
+        """``World.angular_momentum`` (its docstring says what it does)."""
         x, v = self._state
         m = self._ball_masses()[..., None]
         if self.dim == 3:

@@ -65,9 +65,7 @@ class TerrainView:
         return self._table.pose[:, row]
 
     def shape_pose(self, shape: int, world: int = 0) -> dict[str, np.ndarray]:
-        """The current pose of ``terrain[shape]`` in one world: ``position`` (its centre), ``rotation``,
-        ``velocity`` and ``angular_velocity`` (3 components in 3D, 1 in 2D). Static spheres and
-        bowls report their fixed pose."""
+        """``World.shape_pose`` (its docstring says what it does)."""
         k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
         b = V.integer("world", world, 0, self.n_worlds - 1)
         d = self.dim
@@ -98,11 +96,7 @@ class TerrainView:
         angular_velocity: Any = None,
         worlds: Any = None,
     ) -> None:
-        """Move ``terrain[shape]`` between steps, in every world or in ``worlds``: its centre, its
-        rotation matrix, and (for a shape made kinematic, with a velocity or angular velocity at
-        construction) the velocity and angular velocity it moves on with in every step. A paddle or
-        a lid a policy moves sets them at every control step. Values are one for all the chosen
-        worlds, or one per world (a leading axis of len(worlds))."""
+        """``World.set_shape_pose`` (its docstring says what it does)."""
         k, row = self._slot(shape)
         d = self.dim
         idx = self._world_index(worlds)
@@ -142,9 +136,7 @@ class TerrainView:
         self._forget(idx)
 
     def set_heights(self, shape: int, heights: Any, worlds: Any = None) -> None:
-        """Replace the node heights of the HeightField ``terrain[shape]`` in every world or in
-        ``worlds`` (one grid for all of them, or one per world), between steps. Balls are not moved
-        (see :meth:`set_shape_pose`)."""
+        """``World.set_heights`` (its docstring says what it does)."""
         k, row = self._slot(shape)
         hf = self.terrain[k]
         if not isinstance(hf, HeightField):
@@ -161,8 +153,7 @@ class TerrainView:
         self._forget(idx)
 
     def shape_heights(self, shape: int, world: int = 0) -> np.ndarray:
-        """The node heights of the HeightField ``terrain[shape]`` in one world (a copy):
-        ``(nx, ny)`` in 3D, ``(nx,)`` in 2D."""
+        """``World.shape_heights`` (its docstring says what it does)."""
         k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
         b = V.integer("world", world, 0, self.n_worlds - 1)
         hf = self.terrain[k]
@@ -175,10 +166,7 @@ class TerrainView:
         return flat if self.dim == 2 else flat.reshape(nx, ny)
 
     def height_table(self, shape: int) -> tuple[np.ndarray, int]:
-        """The live node heights of the HeightField ``terrain[shape]`` as the kernels read them:
-        ``(table, start)``, ``table`` the World's (B, m) height table (every height field's nodes,
-        one row per world; not a copy: :meth:`set_heights` writes it) and ``start`` this field's
-        first column (its ``nx * ny`` nodes follow, x-major)."""
+        """``World.height_table`` (its docstring says what it does)."""
         k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
         if not isinstance(self.terrain[k], HeightField):
             raise ValueError(f"terrain[{k}] is a {type(self.terrain[k]).__name__}, not a HeightField")
@@ -186,8 +174,7 @@ class TerrainView:
         return table.heights, int(table.shape[self._rows[k], INDEX])
 
     def shape_distance(self, shape: int, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """phi and the outward normal of ``terrain[shape]`` at its current pose in one world, at
-        ``points`` (..., d): ``(phi (...), normal (..., d))``."""
+        """``World.shape_distance`` (its docstring says what it does)."""
         k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
         b = V.integer("world", world, 0, self.n_worlds - 1)
         pts, flat = self._points(points)
@@ -200,9 +187,7 @@ class TerrainView:
         return phi.reshape(pts.shape[:-1]), normal.reshape(pts.shape)
 
     def shape_distances(self, shape: int, points: Any, worlds: Any) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`shape_distance` in many worlds at once: ``points`` (k, ..., d) of the worlds
-        ``worlds`` (k,), world ``worlds[t]``'s in ``points[t]``; ``(phi (k, ...), normal (k, ..., d))``,
-        bit for bit :meth:`shape_distance` of each world in turn, in one compiled call."""
+        """``World.shape_distances`` (its docstring says what it does)."""
         k = V.integer("shape", shape, 0, len(self.terrain) - 1, "an index into terrain")
         if worlds is None:
             raise ValueError("worlds must be integer world indices (one per row of points), got None")
@@ -236,9 +221,7 @@ class TerrainView:
         return ev
 
     def terrain_distance(self, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """The terrain's signed distance at ``points`` (..., d) in one world, the smallest phi of
-        its shapes at their current poses (the union of their solids), and the outward normal of
-        that shape: ``(phi (...), normal (..., d))``; inf and zeros without terrain."""
+        """``World.terrain_distance`` (its docstring says what it does)."""
         b = V.integer("world", world, 0, self.n_worlds - 1)
         pts, flat = self._points(points)
         d = self.dim

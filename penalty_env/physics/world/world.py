@@ -31,46 +31,25 @@ from ..geometry.user import SDF
 from ..model import TANGENTIAL, Model, Spin, State, new_control, new_spin
 from ..stepping.common import STATUS_CG, STATUS_NONFINITE
 from ..stepping.integrators import INTEGRATORS, allocate_work
-from ..stepping.lanes import LANES_MAX_BALLS, LANES_MIN_WORLDS
-from ..stepping.large import LARGE_WORLD_MIN_BALLS, NEIGHBOUR_SKIN
-from ..stepping.large_spin import LARGE_SPIN_MIN_BALLS
 from ..stepping.runner import PATHS, Runner
 from .checks import Motor, ball_arrays, gravity_vector, motor_arrays, state_arrays, terrain_tuple, world_index
 from .guard import (
-    STABILITY_SAFETY,
     EnergyDriftWarning,
     StabilityGuard,
     StartCheck,
-    StartOverlapWarning,
     lightest_inertia,
     lightest_tangential_mass,
 )
 from .parameters import Parameters, per_world_model
+from .paths import Options, check_combinations, stepping_path
 from .state import Penetration, StateView
 from .terrain import TerrainView
 
-__all__ = [
-    "World",
-    "Motor",
-    "EnergyDriftWarning",
-    "StartOverlapWarning",
-    "GRID_MIN_BALLS",
-    "LANES_MAX_BALLS",
-    "LANES_MIN_WORLDS",
-    "LARGE_WORLD_MIN_BALLS",
-    "LARGE_SPIN_MIN_BALLS",
-    "NEIGHBOUR_SKIN",
-    "STABILITY_SAFETY",
-    "DAMPING_MODES",
-    "BROADPHASES",
-    "STEPPING",
-    "TANGENTIAL",
-]
+__all__ = ["World", "DAMPING_MODES", "BROADPHASES", "STEPPING"]
 
 DAMPING_MODES = ("linear", "no_tension")
 BROADPHASES = ("all_pairs", "grid", "auto")
 STEPPING = ("auto",) + PATHS
-_EULERS = ("symplectic_euler", "explicit_euler")
 MAX_STEPS_PER_CALL = 2**62  # ``step(n)``: the kernels count steps in int64
 # the scalar path stores the tangential springs' history per ball pair and per ball and shape:
 # refuse a scene whose store would exceed this (the neighbour list stores them per listed pair)
@@ -208,11 +187,24 @@ class World:
         self.mu_r = V.non_negative("mu_r", mu_r)
         self._motors = motor_arrays(motors, n, d)
         self.per_world = V.flag("per_world", per_world)
-        self._check_combinations()
-        self._tangential_parameters(kf, kt, kd_t, kr)
         self.use_grid = self.broadphase == "grid" or (self.broadphase == "auto" and n >= GRID_MIN_BALLS)
+        options = Options(
+            self.rotation,
+            self.mu_r,
+            self.tangential,
+            self.events,
+            self.integrator,
+            self.per_world,
+            self.damping,
+            self.use_grid,
+            self.broadphase,
+            self._motors.ball.shape[0],
+        )
+        check_combinations(options)
+        self._spinning = options.spinning
+        self._tangential_parameters(kf, kt, kd_t, kr)
         lead = V.integer("grid_lead", grid_lead, 0, n - 1, "balls kept out of the grid")
-        self.stepping = self._stepping_path(V.choice("stepping", stepping, STEPPING), B, n)
+        self.stepping = stepping_path(options, V.choice("stepping", stepping, STEPPING), B, n)
         self.guard = StabilityGuard(
             masses=self.masses,
             radii=self.radii,
@@ -240,32 +232,6 @@ class World:
             warnings.warn(self.guard.energy_message(), EnergyDriftWarning, stacklevel=2)
 
     # ---------------------------------------------------------------- construction
-    def _check_combinations(self) -> None:
-        """Refuse option combinations the methods do not support, naming them."""
-        if not self.rotation and self.mu_r != 0.0:
-            raise ValueError(
-                f"mu_r={self.mu_r!r} needs rotation=True (rolling resistance acts on the balls' spin); pass "
-                "rotation=True or leave mu_r at 0"
-            )
-        # the rotating contact law: with rotation, or for the history model on balls that slide
-        self._spinning = self.rotation or self.tangential == "history"
-        if self._spinning and self.events:
-            raise ValueError("events=True does not support rotation=True or tangential='history' yet: use events=False")
-        if self.tangential == "history" and self.integrator not in _EULERS:  # (checked before the path)
-            raise ValueError(
-                f"tangential='history' advances each contact's spring once per step, which needs an integrator "
-                f"with one force pass per step: symplectic_euler or explicit_euler (got {self.integrator!r})"
-            )
-        if self.per_world and self.events:
-            raise ValueError("per_world=True does not support events=True yet: use events=False")
-        if self.integrator == "implicit_euler" and self.damping == "no_tension":
-            # its frozen-contact Jacobian cannot see the clip: the solve would pull separating
-            # balls together, which is what no_tension exists to prevent
-            raise ValueError(
-                "damping='no_tension' is not supported with integrator='implicit_euler' (the linearised "
-                "solve would reintroduce tension); use damping='linear' or an explicit integrator"
-            )
-
     def _tangential_parameters(self, kf: Any, kt: Any, kd_t: Any, kr: Any) -> None:
         """kf, kt, kd_t, kr: given or defaulted, and held to their explicit limits."""
         # Friction's viscous branch -kf v_t is integrated explicitly (also by implicit Euler):
@@ -295,54 +261,6 @@ class World:
                 f"(lightest contact I_eff={self.kr_max * self.dt:g}, dt={self.dt:g}): rolling would overshoot "
                 f"and gain energy. Use kr <= {self.kr_max:g}, a smaller dt, or allow_unstable=True."
             )
-
-    def _stepping_path(self, stepping: str, B: int, n: int) -> str:
-        """The stepping path: the one asked for (refused where it does not apply) or, for ``auto``,
-        the fastest that applies (measured crossovers: ``python -m penalty_env.bench core``)."""
-        euler = self.integrator in _EULERS
-        motors = self._motors.ball.shape[0] > 0
-        if self.per_world and stepping == "neighbour_list":
-            raise ValueError(
-                "per_world=True steps on the scalar and lanes paths only: use stepping='scalar', 'lanes' or 'auto'"
-            )
-        if self._spinning and stepping == "lanes":
-            raise ValueError(
-                "stepping='lanes' does not support rotation=True or tangential='history' yet: use "
-                "stepping='scalar', 'neighbour_list' or 'auto'"
-            )
-        if motors and (self.events or stepping == "neighbour_list"):
-            raise ValueError(
-                "motors drive balls on the scalar and lanes paths only: use stepping='scalar', 'lanes' or "
-                "'auto' and events=False"
-            )
-        if stepping == "auto":
-            if self.events:
-                return "scalar"
-            large = LARGE_SPIN_MIN_BALLS if self._spinning else LARGE_WORLD_MIN_BALLS
-            if n >= large and self.use_grid and euler and not motors and not self.per_world:
-                return "neighbour_list"
-            if self._spinning:
-                return "scalar"
-            if not self.use_grid and euler and n <= LANES_MAX_BALLS and B >= LANES_MIN_WORLDS:
-                return "lanes"
-            return "scalar"
-        if self.events and stepping != "scalar":
-            raise ValueError(
-                f"stepping={stepping!r} cannot locate events; with events=True use stepping='scalar' or 'auto'"
-            )
-        if stepping == "lanes" and (self.use_grid or not euler):
-            raise ValueError(
-                f"stepping='lanes' needs broadphase='all_pairs' (got {self.broadphase!r}, "
-                f"{'grid' if self.use_grid else 'all pairs'}) and symplectic or explicit Euler "
-                f"(got {self.integrator!r})"
-            )
-        if stepping == "neighbour_list" and (not self.use_grid or not euler):
-            raise ValueError(
-                f"stepping='neighbour_list' needs the grid (broadphase='grid', or 'auto' from "
-                f"{GRID_MIN_BALLS} balls; got {self.broadphase!r} with {n} balls) and symplectic or "
-                f"explicit Euler (got {self.integrator!r})"
-            )
-        return stepping
 
     def _new_spin(self, B: int, n: int, d: int) -> Spin | None:
         if not self._spinning:
@@ -641,7 +559,9 @@ class World:
 
     def height_table(self, shape: int) -> tuple[np.ndarray, int]:
         """The live node heights of the HeightField ``terrain[shape]`` as the kernels read them:
-        ``(table, start)`` (see :meth:`.terrain.TerrainView.height_table`)."""
+        ``(table, start)``, ``table`` the World's (B, m) height table (every height field's nodes,
+        one row per world; not a copy: :meth:`set_heights` writes it) and ``start`` this field's
+        first column (its ``nx * ny`` nodes follow, x-major)."""
         return self.terrain_view.height_table(shape)
 
     def shape_distance(self, shape: int, points: Any, world: int = 0) -> tuple[np.ndarray, np.ndarray]:
