@@ -25,14 +25,14 @@ _SAND_V1_GRAIN_MASS = 0.5  # penalty_env.envs.balls.params.SAND_V1_GRAIN_MASS, k
 # v1 is a sibling task, not v0's replacement (v0 stays the main id, bit for bit): Gymnasium's
 # "PenaltyBalls-v0 is out of date, consider upgrading to v1" on every make of v0 would mislead.
 # Likewise Sand-v0 (its makes stay silent as they were; the docs point sand users to Sand-v1) and
-# Goal-v0 (below). Two guards, for these ids' note only:
+# Goal-v0 (below), and SandLevel-v0 (v1 is a larger task beside it). Two guards, for these ids' note only:
 #  - a warnings filter. It holds until something resets the process's filters after this import:
 #    pytest does for every test (its "always" for DeprecationWarning goes first), and so does
 #    unittest's runner (simplefilter("default")), so a user's own tests would show the note;
 #  - hence Gymnasium's logger.deprecation (the note's only caller, in gymnasium.envs.registration)
 #    is wrapped to drop the note of these ids; every other message goes on as before, through
 #    gymnasium.logger.warn with the same category and stack level (the warning names the caller).
-_SIBLING_V0 = re.compile(r"The environment PenaltyBalls(Sand|Goal)?(2D)?-v0 is out of date")
+_SIBLING_V0 = re.compile(r"The environment Penalty(Balls(Sand|Goal)?|SandLevel)(2D)?-v0 is out of date")
 warnings.filterwarnings("ignore", message=".*" + _SIBLING_V0.pattern, category=DeprecationWarning)
 
 
@@ -85,14 +85,20 @@ for _id, _dim, _physics, _grains, _extra, _steps in (
 # The sand-shaping task (penalty_env.envs.sand_level): a kinematic blade levels a heap of grains
 # in a walled arena; 300-step episodes in 3D, 150 in 2D (penalty_env.envs.level.scene.LEVEL_EPISODE_STEPS,
 # kept literal).
-for _id, _dim, _steps in (("PenaltySandLevel-v0", 3, 300), ("PenaltySandLevel2D-v0", 2, 150)):
+# v1 (3D): 2,000 smaller grains, random targets, springs from a softer budget
+# (penalty_env.envs.level.scene.LEVEL_VERSIONS); a larger task beside v0, not its replacement.
+for _id, _dim, _steps, _version in (
+    ("PenaltySandLevel-v0", 3, 300, 0),
+    ("PenaltySandLevel2D-v0", 2, 150, 0),
+    ("PenaltySandLevel-v1", 3, 300, 1),
+):
     if _id not in registry:
         register(
             id=_id,
             entry_point="penalty_env.envs.sand_level:PenaltySandLevelEnv",
             vector_entry_point="penalty_env.envs.sand_level:PenaltySandLevelVectorEnv",
             max_episode_steps=_steps,
-            kwargs={"dim": _dim},
+            kwargs={"dim": _dim} if _version == 0 else {"dim": _dim, "version": _version},
         )
 
 # Goal-conditioned variants of v0 and v1 (penalty_env.envs.goal): a Dict observation with

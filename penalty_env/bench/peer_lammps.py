@@ -26,6 +26,11 @@ the wall's classic ``hooke/history``, whose spring this LAMMPS scales by the con
 has no rolling model), plus LAMMPS's ``rolling sds`` (``_rolling``). ``series_every`` records the
 centre of mass and the rotational and translational kinetic energies every that many steps
 (``fix ave/time`` into a file).
+
+``arena=(L, floor)`` replaces the bowl by a walled box, the level task's: a floor at height
+``floor`` and walls at x, y = +-L, each a ``fix wall/gran`` plane with the wall's law (its own
+``ks_wall`` and ``kd_wall`` where given, as ``World(ks_terrain=, kd_terrain=)``; the tangential
+spring, its dashpot and the rolling terms are the pairs', as the World's are one per scene).
 """
 
 from __future__ import annotations
@@ -169,6 +174,9 @@ def run_lammps(
     mu_r=0.0,
     kr=0.0,
     k_roll=None,
+    arena=None,
+    ks_wall=None,
+    kd_wall=None,
 ) -> LammpsRun:
     """Run ``steps`` steps of LAMMPS from state (x, v) of one 3D world of balls of one mass in a Bowl,
     timed in ``blocks`` consecutive runs (as the World's settled pile is); ``final_state`` also
@@ -181,7 +189,10 @@ def run_lammps(
     and translational kinetic energies every that many steps (``LammpsRun.series``).
 
     Rolling resistance: ``mu_r`` the World's coefficient, ``kr`` its slope (torque per angular
-    speed), ``k_roll`` LAMMPS's rolling spring (default ``kt``); balls of one radius (``_rolling``)."""
+    speed), ``k_roll`` LAMMPS's rolling spring (default ``kt``); balls of one radius (``_rolling``).
+
+    ``arena=(L, floor)``: the walled box instead of the bowl (the module docstring), the walls'
+    spring ``ks_wall`` and dashpot ``kd_wall`` (default ks and kd)."""
     x = np.asarray(x, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
     ks, kd, dt, skin, bowl_radius = float(ks), float(kd), float(dt), float(skin), float(bowl_radius)
@@ -193,11 +204,29 @@ def run_lammps(
     c = [float(ck) for ck in bowl_center]
     m = float(masses[0])
     pad = 2.0 * float(radii.max())
-    lo = [ck - bowl_radius - pad for ck in c]
-    hi = [ck + bowl_radius + pad for ck in c]
-    styles = _contact_styles(rotating, ks, kd, kt, kd_t, mu, m, rolling)
+    if arena is None:
+        lo = [ck - bowl_radius - pad for ck in c]
+        hi = [ck + bowl_radius + pad for ck in c]
+        walls = "fix wall all wall/gran/region {wall} region bowl"
+        region = f"region bowl sphere {c[0]!r} {c[1]!r} {c[2]!r} {bowl_radius!r} side in"
+    else:
+        L, floor = float(arena[0]), float(arena[1])
+        lo = [-L - pad, -L - pad, floor - pad]
+        hi = [L + pad, L + pad, float(x[:, 2].max()) + 2.0 * L]
+        walls = "\n".join(
+            f"fix {name} all wall/gran {{wall}} {plane}"
+            for name, plane in (
+                ("floor", f"zplane {floor!r} NULL"),
+                ("wallx", f"xplane {-L!r} {L!r}"),
+                ("wally", f"yplane {-L!r} {L!r}"),
+            )
+        )
+        region = ""
+    ks_w = ks if ks_wall is None else float(ks_wall)
+    kd_w = kd if kd_wall is None else float(kd_wall)
+    styles = _contact_styles(rotating, ks, kd, kt, kd_t, mu, m, rolling, ks_w, kd_w)
     per_block = -(-int(steps) // blocks)
-    script = _script(c, bowl_radius, styles, gravity, skin, dt, steps, per_block, blocks, series_every, final_state)
+    script = _script(region, walls, styles, gravity, skin, dt, steps, per_block, blocks, series_every, final_state)
     res, final, series = _execute(
         lammps, script, x, v, radii, masses, lo, hi, omega, threads, timeout, final_state, series_every
     )
@@ -255,24 +284,29 @@ def _rolling(mu_r, kr, k_roll, radii, rotating):
     return (k_roll, kr / (0.5 * r) ** 2, mu_r), (k_roll, kr / r**2, mu_r)
 
 
-def _contact_styles(rotating, ks, kd, kt, kd_t, mu, m, rolling=None):
+def _contact_styles(rotating, ks, kd, kt, kd_t, mu, m, rolling=None, ks_wall=None, kd_wall=None):
     """LAMMPS's pair style, wall style and integrator for the contact law, frictionless or with
-    friction (the balls turn), and with rolling resistance (``rolling``, from :func:`_rolling`)."""
+    friction (the balls turn), and with rolling resistance (``rolling``, from :func:`_rolling``;
+    then the wall's spring and dashpot may differ from the pairs': ``ks_wall``, ``kd_wall``)."""
     # Kn Kt gamma_n gamma_t xmu dampflag; m_eff = m / 2 between two balls, m at the wall
     if rolling is not None:
-        xt = kd_t / kd if kd_t > 0.0 else 0.0
+        ks_w = ks if ks_wall is None else ks_wall
+        kd_w = kd if kd_wall is None else kd_wall
 
-        def law(gamma_n: float, roll: tuple) -> str:
+        def law(k: float, c: float, gamma_n: float, roll: tuple) -> str:
+            xt = kd_t / c if kd_t > 0.0 else 0.0  # LAMMPS's tangential dashpot: xt x the normal one's
             return (
-                f"hooke {ks!r} {gamma_n!r} damping mass_velocity tangential linear_history {kt!r} {xt!r} {mu!r} "
+                f"hooke {k!r} {gamma_n!r} damping mass_velocity tangential linear_history {kt!r} {xt!r} {mu!r} "
                 f"rolling sds {roll[0]!r} {roll[1]!r} {roll[2]!r}"
             )
 
         return (
-            f"granular\npair_coeff * * {law(kd / (m / 2.0), rolling[0])}",
-            f"granular {law(kd / m, rolling[1])}",
+            f"granular\npair_coeff * * {law(ks, kd, kd / (m / 2.0), rolling[0])}",
+            f"granular {law(ks_w, kd_w, kd_w / m, rolling[1])}",
             "nve/sphere",
         )
+    if (ks_wall is not None and ks_wall != ks) or (kd_wall is not None and kd_wall != kd):
+        raise ValueError("a wall spring or dashpot of its own (ks_wall, kd_wall) needs the granular form (mu_r > 0)")
     if rotating:
         damp = 1 if kd_t > 0.0 else 0
         pair = f"gran/hooke/history {ks!r} {kt!r} {kd / (m / 2.0)!r} {kd_t / (m / 2.0)!r} {mu!r} {damp}"
@@ -294,10 +328,11 @@ def _contact_styles(rotating, ks, kd, kt, kd_t, mu, m, rolling=None):
     return pair, wall, integrate
 
 
-def _script(c, bowl_radius, styles, gravity, skin, dt, steps, per_block, blocks, series_every, final_state):
-    """The input script: the state from ``state.data``, the bowl, the contact law (``styles``),
-    gravity and the neighbour list, ``blocks`` runs of ``per_block`` steps, and the series and the
-    final state when asked for."""
+def _script(region, walls, styles, gravity, skin, dt, steps, per_block, blocks, series_every, final_state):
+    """The input script: the state from ``state.data``, the bowl's ``region`` (or none) and the
+    ``walls`` fixes (a template of the wall's law), the contact law (``styles``), gravity and the
+    neighbour list, ``blocks`` runs of ``per_block`` steps, and the series and the final state when
+    asked for."""
     pair, wall, integrate = styles
     gmag = float(np.linalg.norm(gravity))
     gdir = [float(gk) / gmag for gk in gravity] if gmag > 0 else [0.0, 0.0, -1.0]
@@ -308,10 +343,10 @@ atom_modify map array
 boundary f f f
 comm_modify vel yes
 read_data state.data
-region bowl sphere {c[0]!r} {c[1]!r} {c[2]!r} {bowl_radius!r} side in
+{region}
 pair_style {pair}
 {"" if "pair_coeff" in pair else "pair_coeff * *"}
-fix wall all wall/gran/region {wall} region bowl
+{walls.format(wall=wall)}
 fix grav all gravity {gmag!r} vector {gdir[0]!r} {gdir[1]!r} {gdir[2]!r}
 fix int all {integrate}
 neighbor {skin!r} bin

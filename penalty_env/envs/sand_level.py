@@ -30,11 +30,14 @@ class PenaltySandLevelEnv(TaskEnv):
     ## Description
 
     A heap of grains lies in a walled square arena 2 m wide (in 2D its vertical slice, a trough
-    2 m long). The agent drives a kinematic blade, a box 0.06 m thick, 0.5 m wide and 0.5 m tall
+    2 m long). `PenaltySandLevel-v1` is the task at a size that matters: 2,000 grains of radius
+    0.04 m (a flattened bed 2.8 grains deep, against v0's 250 grains that spread thinner than one
+    grain), random targets by default, the springs from a softer budget, and a picture of the
+    grains in `render()`; see Version History. The agent drives a kinematic blade, a box 0.06 m thick, 0.5 m wide and 0.5 m tall
     (2D: a rectangle 0.06 x 0.5 m), through the grains and must shape the bed to a target surface:
     flat by default (the level surface holding the grains' volume), a slope or a mound drawn per
     episode (`target="random"`), or any height map given at reset. The grains are the penalty
-    core's balls (radius 0.06 m, mass 0.5 kg, friction 0.5 with a tangential spring, so static
+    core's balls (radius 0.06 m, mass 0.5 kg; v1 0.04 m, 0.148 kg; friction 0.5 with a tangential spring, so static
     friction holds, rolling resistance 0.1: the grains of docs/granular.md's 3D piles); the floor
     and the walls are planes; the blade is a `Box` terrain shape whose velocity the action sets
     for each control period, so it moves with every physics step and the grains feel its motion
@@ -108,7 +111,7 @@ class PenaltySandLevelEnv(TaskEnv):
     target's five, then (3D) y.
 
     The flat target is the grains' volume over the arena's area at the map's solid fraction (0.094
-    m in 3D, 0.166 m in 2D at the defaults), which is also the mean of every height map with all
+    m in 3D, 0.166 m in 2D at the defaults; v1 0.223 m), which is also the mean of every height map with all
     grains inside. `target="random"` adds to it a relief of zero mean whose largest |value| is
     0.25 to 0.5 x the level: a plane sloping along a uniform direction, or a Gaussian mound or pit
     of standard deviation 0.4 m, each with probability 1/2. `reset(options={"target": map})` sets
@@ -156,13 +159,26 @@ class PenaltySandLevelEnv(TaskEnv):
     is stepped by the core's scalar step through a grid of the grains' size.
     `env.unwrapped.scene.describe()` prints the values.
 
+    v1's budget (`penalty_env.envs.level.scene.LEVEL_VERSIONS`): an impact at the blade's top speed
+    and the start column's weight overlap at most 20% of a radius; the floor's and walls' spring is
+    twice the pairs' (a grain on a plane has twice a pair's effective mass: the same omega, half
+    the overlap); the substep is at most 0.8 of the stability limit (at the limit a settled bed
+    jitters in place and never comes to rest). 70 substeps of 1.4 ms per 0.1 s step; the settled
+    bed's largest overlap 0.17 r (docs/level.md).
+
     ## Rendering
 
-    `render_mode="rgb_array"`: the height map (left) and the target (right) as grey levels (3D)
-    or bars (2D), the blade's cell marked red; a diagnostic view, not a picture of the grains.
+    `render_mode="rgb_array"`: the height map and the target as grey levels (3D) or bars (2D),
+    the blade's cell marked red. v1 draws the grains themselves on their left: from above, each
+    grain a disc shaded by its height (dark on the floor, light at twice the flat level), the
+    highest on top, the blade's footprint a red outline.
 
     ## Version History
 
+    * v1 (3D): 2,000 grains of radius 0.04 m and mass 0.148 kg (v0's density), `target="random"`
+      by default, a start cone of 25 degrees (the mound fits the arena), the springs from the
+      budget above (ks 1,635 N/m, 70 substeps per step; v0's rule would need 133 for these
+      grains), the grains drawn by `render()`. v0 unchanged, bit for bit.
     * v0: Initial version.
     """
 

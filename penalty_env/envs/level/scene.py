@@ -8,6 +8,7 @@ Units are SI (metres, kilograms, seconds). The last axis is up.
 from __future__ import annotations
 
 import math
+from dataclasses import astuple, dataclass
 from typing import Any
 
 import numpy as np
@@ -21,7 +22,15 @@ from ..randomize import Field, check_override, check_ranges, draw
 from ..terrains.arena import walls as arena_walls
 from . import kernel as LK
 
-__all__ = ["SandLevelScene", "LEVEL_FIELDS", "LEVEL_PARAMETERS", "LEVEL_EPISODE_STEPS", "settled_heap"]
+__all__ = [
+    "SandLevelScene",
+    "LevelPhysics",
+    "LEVEL_VERSIONS",
+    "LEVEL_FIELDS",
+    "LEVEL_PARAMETERS",
+    "LEVEL_EPISODE_STEPS",
+    "settled_heap",
+]
 
 # ----------------------------------------------------------------------------------------------
 # The task's constants (the env docstring's tables)
@@ -36,9 +45,9 @@ BLADE_HALF = {3: (0.03, 0.25, 0.25), 2: (0.03, 0.25)}  # the blade box's half ex
 WALL_GAP = 0.1  # the blade's faces stay this far from the walls, m
 MAP_TOP = 1.0  # the height map's and the target's upper bound, m
 PACKING = {3: 0.6, 2: 0.82}  # the height map's nominal solid fraction (a loose random packing)
-BLADE_FLOOR = 2.0 * 0.06 + 0.01  # the blade's bottom never goes below one grain layer plus 1 cm, m
 MAX_LEVEL = 0.4  # the grains' flat level may be at most this deep, m
-BLADE_LIFT = GRAIN_RADIUS  # the blade's bottom rides this far above the target surface (a bed's grain tops stand about a radius above its depth), m
+# the blade's bottom rides a grain radius above the target surface (a bed's grain tops stand about
+# a radius above its depth), and never below LevelPhysics.blade_floor
 REWARD_SCALE = 100.0  # reward per metre of decrease of the height-map error (1 per cm)
 HEAP_SLOPE = 35.0  # the grains start on a lattice cone of this slope (degrees), then settle
 HEAP_LATTICE = 2.1  # ... its sites this many radii apart (jittered by 5% of a radius)
@@ -47,9 +56,68 @@ SETTLE_SPEED = 0.005  # ... until no grain moves faster than this, m/s
 TARGET_AMPLITUDE = (0.25, 0.5)  # target="random": the relief's half range, x the flat level (uniform)
 LEVEL_EPISODE_STEPS = {3: 300, 2: 150}  # the registered ids' episode length (25 s and 15 s)
 
+
+@dataclass(frozen=True)
+class LevelPhysics:
+    """What a version of the task fixes: its grains, their default count, the contact budget the
+    springs and the substep are derived from, and the default target.
+
+    The springs come from ``configure`` (:meth:`SandLevelScene._contact_model`): a grain struck at
+    ``impact`` x the blade's top speed (per axis, times sqrt(d - 1) for a diagonal move) overlaps
+    at most ``overlap`` x its radius, and so does a grain under a column of grains as tall as the
+    heap's start (the heap's static load, which fixes the spring's omega whatever the mass:
+    docs/level.md, "The spring the task needs")."""
+
+    version: int
+    grain_radius: float  # m
+    grain_mass: float  # kg
+    grains: tuple[int, int]  # the default count (3D, 2D)
+    impact: float  # the springs' impact speed, x the blade's top speed (x sqrt(d - 1))
+    overlap: float  # the overlap budget, x the grain radius
+    target: str  # the default target
+    heap_slope: float = HEAP_SLOPE  # the start lattice's cone, degrees
+    floor_stiffening: float = 1.0  # ks_terrain = this x the derived one (kd_terrain x its root: the same zeta)
+    step_margin: float = 1.0  # the substep at most this fraction of the core's stability limit
+    stepping: str = "scalar"  # the World's stepping path (a randomised scene's per-world physics: "scalar")
+
+    @property
+    def blade_floor(self) -> float:
+        """The blade's bottom never goes below one grain layer plus 1 cm, m."""
+        return 2.0 * self.grain_radius + 0.01
+
+
+# v0: 250 grains of 0.06 m; springs from twice the blade's top speed at 10% of a radius.
+# v1: 2,000 grains of 0.04 m (the same density: a flattened bed 2.8 grains deep), random targets,
+# a lower start cone (25 degrees: the mound fits the arena); springs from the blade's top speed at
+# 20% of a radius, the budget a bed's height map still reads (docs/level.md). Two more terms:
+# - the floor and walls' spring twice the pairs': a grain on a plane has m_eff = m, twice a pair's
+#   m / 2, so 2 ks gives the pairs' omega (no shorter substep) and halves the floor's overlap under
+#   a column (measured on the settled bed: the largest 0.23 r at 1 x, 0.13 r at 2 x);
+# - the substep at 0.8 of the stability limit, not at it: there the symplectic step's eigenvalue is
+#   -1, a period-two mode that neither grows nor decays, and a bed never comes to rest (measured:
+#   500 of 2,000 grains jitter in place above 2 mm/s after 40 s at the limit; 3 at 0.8 of it);
+# - the neighbour-list path (2.6x the scalar path on the settled bed, one thread: bench level
+#   --lammps), but for a randomised scene (per-world physics: the scalar path).
+LEVEL_VERSIONS: dict[int, LevelPhysics] = {
+    0: LevelPhysics(0, GRAIN_RADIUS, GRAIN_MASS, (250, 24), 2.0, 0.1, "flat"),
+    1: LevelPhysics(
+        1,
+        0.04,
+        GRAIN_MASS * (0.04 / GRAIN_RADIUS) ** 3,
+        (2000, 80),
+        1.0,
+        0.2,
+        "random",
+        25.0,
+        2.0,
+        0.8,
+        "neighbour_list",
+    ),
+}
+
 # keyword arguments: default (3D, 2D), allowed range, meaning
 LEVEL_PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
-    "grains": ((250, 24), 1, 2000, "grains in the heap"),
+    "grains": ((250, 24), 1, 8000, "grains in the heap (v1: 2,000, 80)"),
     "cells": ((10, 20), 2, 64, "height-map cells per horizontal axis"),
     "blade_speed": (0.5, 0.05, 1.0, "the blade's top speed per horizontal axis, m/s"),
     "control_period": (0.1, 0.02, 0.25, "simulated seconds per env step"),
@@ -76,21 +144,24 @@ LEVEL_FIELDS: dict[str, Field] = {
 }
 
 
-def _parameters(dim: Any, params: dict[str, Any], owner: str) -> dict[str, Any]:
-    """Validated keyword arguments with their defaults (ValueError naming the argument, its value
-    and its range; TypeError for an unknown one, in Python's wording)."""
+def _parameters(dim: Any, params: dict[str, Any], owner: str, phys: LevelPhysics) -> dict[str, Any]:
+    """Validated keyword arguments with their defaults (the version's grains and target;
+    ValueError naming the argument, its value and its range; TypeError for an unknown one, in
+    Python's wording)."""
     dim = V.integer("dim", dim, 2, 3, "2 or 3")
     out: dict[str, Any] = {"dim": dim}
     for name in params:
         if name not in LEVEL_PARAMETERS and name != "target":
             raise TypeError(f"{owner}() got an unexpected keyword argument {name!r}")
     for name, (default, lo, hi, _) in LEVEL_PARAMETERS.items():
+        if name == "grains":
+            default = phys.grains
         value = params.get(name, default[3 - dim] if isinstance(default, tuple) else default)
         if name in ("grains", "cells"):
             out[name] = V.integer(name, value, lo, hi)
         else:
             out[name] = V.in_range(name, value, lo, hi)
-    out["target"] = V.choice("target", params.get("target", "flat"), TARGETS)
+    out["target"] = V.choice("target", params.get("target", phys.target), TARGETS)
     return out
 
 
@@ -103,6 +174,9 @@ class SandLevelScene:
         owner: the caller named in the TypeError for an unknown keyword argument.
         randomize: None, or ranges ``{name: (low, high)}`` of :data:`LEVEL_FIELDS` each world draws
             at each reset (the env docstring's "Domain randomisation").
+        version: the task's version (:data:`LEVEL_VERSIONS`: its grains, contact budget and
+            default target), or a :class:`LevelPhysics` of one's own (the benches compare a
+            version's budget on another's grains this way).
         **params: ``target`` ("flat" or "random") and the keywords of :data:`LEVEL_PARAMETERS`.
     """
 
@@ -115,10 +189,14 @@ class SandLevelScene:
         dim: int = 3,
         owner: str = "PenaltySandLevelEnv.__init__",
         randomize: Any = None,
+        version: int | LevelPhysics = 0,
         **params: Any,
     ):
         self.n_worlds = V.integer("n_worlds", n_worlds, 1)
-        p = _parameters(dim, params, owner)
+        if not isinstance(version, LevelPhysics):
+            version = LEVEL_VERSIONS[V.integer("version", version, 0, max(LEVEL_VERSIONS))]
+        self.phys = phys = version
+        p = _parameters(dim, params, owner, phys)
         self.params = p
         self.randomize = check_ranges(randomize, LEVEL_FIELDS)
         self.dim = d = p["dim"]
@@ -130,13 +208,14 @@ class SandLevelScene:
         self.control_period = p["control_period"]
         self.success_fraction = p["success_fraction"]
         self.half_width = HALF_WIDTH
-        self.radii = np.full(n, GRAIN_RADIUS)
-        self.masses = np.full(n, GRAIN_MASS)
+        self.grain_radius = r = phys.grain_radius
+        self.radii = np.full(n, r)
+        self.masses = np.full(n, phys.grain_mass)
         self.blade_half = np.array(BLADE_HALF[d])
         # the blade centre's horizontal range: its faces WALL_GAP from the walls
         self.blade_range = HALF_WIDTH - WALL_GAP - self.blade_half[:-1]
         cell = 2.0 * HALF_WIDTH / self.cells
-        volume = 4.0 / 3.0 * math.pi * GRAIN_RADIUS**3 if d == 3 else math.pi * GRAIN_RADIUS**2
+        volume = 4.0 / 3.0 * math.pi * r**3 if d == 3 else math.pi * r**2
         self.depth_unit = volume / (cell ** (d - 1) * PACKING[d])  # one grain's depth over one cell
         self._check_fits()
         self._contact_model()
@@ -158,29 +237,36 @@ class SandLevelScene:
 
     def _contact_model(self) -> None:
         """ks, kd (pairs and terrain), the substep and kf, by ``physics.configure`` as the
-        PenaltyBalls scene derives them: a grain-grain impact at twice the blade's top speed (a
-        grain thrown by the blade meets a resting one) overlaps at most 10% of a radius, also under
-        the weight of a column of grains as tall as the heap's start (the steady force), and
-        rebounds with restitution 0.3; the substep keeps its worst-case restitution error within
-        30% and the core's stability limit for every contact."""
-        d, T = self.dim, self.control_period
-        column = math.ceil(self.heap_lattice(self.n_grains)[:, -1].max() / (2.0 * GRAIN_RADIUS)) + 1
+        PenaltyBalls scene derives them, from the version's budget (:class:`LevelPhysics`): a
+        grain-grain impact at ``impact`` x the blade's top speed (v0: twice it, a grain thrown by
+        the blade meets a resting one; v1: once, a grain struck by the blade) overlaps at most
+        ``overlap`` x a radius (v0 10%, v1 20%), also under the weight of a column of grains as
+        tall as the heap's start (the steady force), and rebounds with restitution 0.3; the
+        substep keeps its worst-case restitution error within 30% and the core's stability limit
+        for every contact."""
+        d, T, phys = self.dim, self.control_period, self.phys
+        column = math.ceil(self.heap_lattice(self.n_grains)[:, -1].max() / (2.0 * phys.grain_radius)) + 1
         # randomised: the springs of the fastest blade and the heaviest grains (the corners that
         # need the stiffest), the substep of the lightest grains with them
         speed = self.randomize.get("blade_speed", (self.blade_speed,) * 2)[1]
-        m_lo, m_hi = self.randomize.get("grain_mass", (GRAIN_MASS, GRAIN_MASS))
+        m_lo, m_hi = self.randomize.get("grain_mass", (phys.grain_mass, phys.grain_mass))
         rule = ContactRule(
-            speed=2.0 * speed * math.sqrt(d - 1),
-            penetration=0.1,
+            speed=phys.impact * speed * math.sqrt(d - 1),
+            penetration=phys.overlap,
             restitution=0.3,
             accuracy=0.3,
             force=column * m_hi * GRAVITY,
             gravity=GRAVITY,
             control_period=T,
         )
-        pair = np.full(2, m_hi), np.full(2, GRAIN_RADIUS)
+        pair = np.full(2, m_hi), np.full(2, phys.grain_radius)
         self.config = configure_task(rule, *pair)
         springs = derive(rule, *pair, (0, 1), m_hi, self.config.zeta, self.config.stiffening)
+        if phys.floor_stiffening != 1.0:
+            springs = springs._replace(
+                ks_terrain=springs.ks_terrain * phys.floor_stiffening,
+                kd_terrain=springs.kd_terrain * math.sqrt(phys.floor_stiffening),
+            )
         self.ks, self.kd, self.ks_terrain, self.kd_terrain = springs
         self.gravity = GRAVITY
         self.world_kwargs: dict[str, Any] = dict(
@@ -193,7 +279,7 @@ class SandLevelScene:
             damping="no_tension",
             integrator="symplectic_euler",
             broadphase="grid",
-            stepping="scalar",
+            stepping="scalar" if self.randomize else phys.stepping,
             mu=GRAIN_FRICTION,
             rotation=True,
             mu_r=GRAIN_ROLLING,
@@ -203,9 +289,11 @@ class SandLevelScene:
         lattice = self.heap_lattice(self.n_grains)
         probe = World(lattice, self.radii, self.masses, dt=T, allow_unstable=True, **self.world_kwargs)
         limit = probe.stability_limit()
-        if m_lo != GRAIN_MASS:  # the lightest grains' contacts are the shortest
+        if m_lo != phys.grain_mass:  # the lightest grains' contacts are the shortest
             limit = min(limit, probe.stability_limit_for(np.full(self.n_grains, m_lo), self.radii, *springs))
-        self.substeps = substeps_for(T, min(self.config.dt, limit))
+        self.substeps = substeps_for(
+            T, min(self.config.dt, limit if phys.step_margin == 1.0 else phys.step_margin * limit)
+        )
         self.dt = T / self.substeps
 
     def _terrain(self) -> tuple:
@@ -225,7 +313,7 @@ class SandLevelScene:
         ``HEAP_LATTICE`` radii inside the walls that lie lowest under a cone of slope
         ``HEAP_SLOPE`` about the vertical through the centre (sorted by distance from the axis plus
         height / tan(slope)), jittered horizontally by up to 5% of a radius (a fixed generator)."""
-        d, r = self.dim, GRAIN_RADIUS
+        d, r = self.dim, self.grain_radius
         step = HEAP_LATTICE * r
         k_max = int((HALF_WIDTH - 1.1 * r) / step)
         axis = np.arange(-k_max, k_max + 1) * step
@@ -233,7 +321,7 @@ class SandLevelScene:
         grids = np.meshgrid(*([axis] * (d - 1)), layers, indexing="ij")
         pts = np.stack([g.ravel() for g in grids], axis=-1)
         rho = np.linalg.norm(pts[:, :-1], axis=1)
-        score = rho + pts[:, -1] / math.tan(math.radians(HEAP_SLOPE))
+        score = rho + pts[:, -1] / math.tan(math.radians(self.phys.heap_slope))
         order = np.lexsort((pts[:, -1], rho, score))
         out = pts[order[:n]].copy()
         out[:, -1] += 1.05 * r
@@ -315,9 +403,9 @@ class SandLevelScene:
 
     def _bottom(self, target: np.ndarray, h: np.ndarray) -> np.ndarray:
         """The blade bottom's height over horizontal points ``h``: the target surface there, but
-        never below ``BLADE_FLOOR`` (one grain layer plus 1 cm: lower, it would bulldoze every
+        never below ``blade_floor`` (one grain layer plus 1 cm: lower, it would bulldoze every
         grain on the floor before it)."""
-        return np.maximum(self.target_height(target, h) + BLADE_LIFT, BLADE_FLOOR)
+        return np.maximum(self.target_height(target, h) + self.grain_radius, self.phys.blade_floor)
 
     # ------------------------------------------------------------------ targets
     def check_target(self, target: Any) -> np.ndarray:
@@ -428,9 +516,10 @@ class SandLevelScene:
     def _clearance(self, grains: np.ndarray, blade: np.ndarray) -> np.ndarray:
         """The lowest blade bottom clear of ``grains`` (k, n, d) at horizontal positions ``blade``
         (k, d): 5 mm above the highest grain top within a radius of the blade's footprint."""
-        h = self.blade_half[:-1] + GRAIN_RADIUS
+        r = self.grain_radius
+        h = self.blade_half[:-1] + r
         near = np.all(np.abs(grains[:, :, :-1] - blade[:, None, :-1]) < h, axis=-1)
-        tops = np.where(near, grains[:, :, -1] + GRAIN_RADIUS, 0.0)
+        tops = np.where(near, grains[:, :, -1] + r, 0.0)
         return tops.max(axis=1) + 0.005
 
     # ------------------------------------------------------------------ stepping
@@ -488,9 +577,63 @@ class SandLevelScene:
         obs[idx, 2 * C + h :] = np.clip(self.blade_velocity[idx, :-1], -self.top_speed, self.top_speed)
 
     def frame(self, b: int, scale: int = 16) -> np.ndarray:
-        """World b as a uint8 RGB image: the height map (left) and the target (right), each cell a
-        ``scale``-pixel square (2D: a column of bars), grey by height (white at 0.5 m), the blade's
-        cell red on the map."""
+        """World b as a uint8 RGB image: from v1 a picture of the grains (:meth:`grains_picture`)
+        on the left; then the height map and the target, each cell a ``scale``-pixel square (2D: a
+        column of bars), grey by height (white at 0.5 m), the blade's cell red on the map."""
+        maps = self.maps_picture(b, scale)
+        if self.phys.version == 0:
+            return maps
+        side = maps.shape[0]
+        gap = np.full((side, scale // 4, 3), 255, dtype=np.uint8)
+        return np.concatenate([self.grains_picture(b, side), gap, maps], axis=1)
+
+    def grains_picture(self, b: int, size: int) -> np.ndarray:
+        """World b's grains as a uint8 RGB image ``size`` pixels square: in 3D from above (x right,
+        y up, the arena filling the image), each grain a disc shaded by its height (dark at the
+        floor, light at twice the flat level), the highest drawn last; in 2D from the side (z up,
+        the floor at 0.8 of the image's height). The blade is a red outline (its footprint in
+        3D, its section in 2D), the walls dark lines. The observations' raster draws the discs."""
+        from ..views.raster import rgb_worlds
+
+        d, L = self.dim, HALF_WIDTH
+        x = np.ascontiguousarray(self.world.positions[b : b + 1])
+        up = x[0, :, -1]
+        shade = np.clip(up / (2.0 * max(self.flat_level, self.grain_radius)), 0.0, 1.0)[:, None]
+        low, high = np.array([120.0, 84.0, 40.0]), np.array([246.0, 222.0, 160.0])
+        colors = np.ascontiguousarray(low + shade * (high - low))
+        order = np.argsort(up, kind="stable").astype(np.int64) if d == 3 else np.arange(self.n_grains, dtype=np.int64)
+        scale = size / (2.0 * L)
+        ground = 0.8 * size
+        background = np.full((1, size, size, 3), 250, dtype=np.uint8)
+        if d == 2:
+            background[0, int(ground) :] = 200  # below the floor
+        out = np.empty((1, size, size, 3), dtype=np.uint8)
+        worlds = np.zeros(1, dtype=np.int64)
+        no_goal = np.full((1, d), np.nan)
+        rgb_worlds(worlds, out, x, self.radii[None], colors, order, no_goal, 0.0, background, worlds, scale, ground)
+        img = out[0]
+        # the blade: an outline of its footprint (3D) or section (2D)
+        lo = self.blade[b] - self.blade_half
+        hi = self.blade[b] + self.blade_half
+        axis = 1  # the image's vertical axis: y in 3D, z in 2D (index 1 either way)
+        origin = 0.5 * size if d == 3 else ground
+        c0, c1 = (np.clip(0.5 * size + v[0] * scale, 0, size - 1) for v in (lo, hi))
+        r0, r1 = (np.clip(origin - v[axis] * scale, 0, size - 1) for v in (hi, lo))
+        i0, i1, j0, j1 = int(r0), int(r1), int(c0), int(c1)
+        red = np.array([220, 30, 30], dtype=np.uint8)
+        for t in range(2):  # two pixels wide
+            img[i0 : i1 + 1, min(j0 + t, size - 1)] = red
+            img[i0 : i1 + 1, max(j1 - t, 0)] = red
+            img[min(i0 + t, size - 1), j0 : j1 + 1] = red
+            img[max(i1 - t, 0), j0 : j1 + 1] = red
+        img[:, :2] = img[:, -2:] = 60  # the walls
+        if d == 3:
+            img[:2] = img[-2:] = 60
+        return img
+
+    def maps_picture(self, b: int, scale: int = 16) -> np.ndarray:
+        """World b's height map (left) and target (right), each cell a ``scale``-pixel square (2D: a
+        column of bars), grey by height (white at 0.5 m), the blade's cell red on the map."""
         n = self.cells
         maps = np.stack([self.maps[b], self.targets[b]])
         if self.dim == 2:
@@ -519,7 +662,7 @@ class SandLevelScene:
         return {"randomization": (tuple(self.randomize), self.drawn)} if self.randomize else {}
 
     def _nominal(self, name: str) -> float:
-        return {"friction": GRAIN_FRICTION, "grain_mass": GRAIN_MASS, "blade_speed": self.blade_speed}[name]
+        return {"friction": GRAIN_FRICTION, "grain_mass": self.phys.grain_mass, "blade_speed": self.blade_speed}[name]
 
     def _apply_draws(self, idx: np.ndarray, rngs: Any, override: Any) -> None:
         """Draw the fields of the worlds ``idx`` (one uniform per field from each world's generator,
@@ -599,14 +742,14 @@ def settled_heap(scene: SandLevelScene) -> np.ndarray:
         "level",
         scene.dim,
         scene.n_grains,
-        HEAP_SLOPE,
+        scene.phys.heap_slope,
         HEAP_LATTICE,
         scene.dt,
         scene.ks,
         scene.kd,
         scene.ks_terrain,
         scene.kd_terrain,
-    )
+    ) + (() if scene.phys == LEVEL_VERSIONS[0] else astuple(scene.phys))  # (v0's key as before)
     known = remembered_bed(
         _HEAPS, "sand_level_heap", key, lambda: _settle(scene), f"the heap ({scene.n_grains} grains)", SETTLE_SPEED
     )

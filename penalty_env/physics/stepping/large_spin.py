@@ -51,11 +51,17 @@ from .large import (
     permute_rows_serial,
 )
 
-__all__ = ["run_large_spin", "run_large_spin_serial", "LARGE_SPIN_MIN_BALLS"]
+__all__ = ["run_large_spin", "run_large_spin_serial", "LARGE_SPIN_MIN_BALLS", "SERIAL_MAX_SPIN_BALLS"]
 
 # ``stepping="auto"`` steps a world of spinning balls (grid, symplectic or explicit Euler) on this
 # path from this many balls (measured: ``python -m penalty_env.bench core``)
 LARGE_SPIN_MIN_BALLS = 128
+# A single world of spinning balls below this many is stepped serially (the same bits): its step
+# has more parallel regions than the plain list's (the block pass, the spins' permutation), and on
+# 2 cores two threads were slower than one at every size measured (settled beds of v1's grains,
+# 2,000 to 64,000: 0.40x at 2,000, 0.53 at 8,000, 0.85 at 16,000, 0.72 at 32,000, 0.93 at 64,000;
+# the plain list's crossover, ``.large.SERIAL_MAX_BALLS``, is 2,000)
+SERIAL_MAX_SPIN_BALLS = 65_536
 
 
 @njit

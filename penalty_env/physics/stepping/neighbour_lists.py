@@ -99,11 +99,18 @@ class NeighbourLists:
         escapes = int(np.clip(self.n // 256, 64, LARGE_WORLD_MAX_ESCAPES))
         return new_large_world(self.n, self.d, cap, self.threads, escapes, PAIR_ROWS, PAIR_BLOCK, self.skin)
 
-    def reset(self, worlds: Any = slice(None)) -> None:
+    def reset(self, worlds: Any = slice(None), end_history: bool = False) -> None:
         """A world's storage order and list are history: after new state, start afresh, so the
-        world steps exactly as a new World made from that state would."""
+        world steps exactly as a new World made from that state would. ``end_history`` (new
+        positions): the listed pairs' springs end too (they carry no stamp: a rebuild would carry
+        every nonzero one into the new state's contacts); the terrain's and the escaped balls'
+        tables end by their stamps (the World's spin clock)."""
         for b in np.atleast_1d(np.arange(len(self.worlds))[worlds]):
             lw, model = self.worlds[b]
+            if end_history and self.spins:
+                lh = self.spins[b][2]
+                lh.pair_springs[:] = 0.0
+                lh.carry_hist[:] = 0.0
             if self.spins:  # the spins to ball order (the list's springs wait for the rebuild's carry)
                 sp = self.spins[b][0]
                 assert self.spin is not None

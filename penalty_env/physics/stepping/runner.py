@@ -42,6 +42,7 @@ from . import lanes as _lanes
 from . import scalar as _scalar
 from .common import Scratch, new_scratch
 from .large import EXPLICIT_EULER, SERIAL_MAX_BALLS, SYMPLECTIC_EULER
+from .large_spin import SERIAL_MAX_SPIN_BALLS
 from .neighbour_lists import NeighbourLists
 
 __all__ = [
@@ -319,13 +320,15 @@ class Runner:
         state["_entry"] = None  # compiled code: found again (cached) on first use after unpickling
         return state
 
-    def forget(self, worlds: Any = slice(None)) -> None:
+    def forget(self, worlds: Any = slice(None), end_history: bool = False) -> None:
         """Drop what was derived from the state of ``worlds`` (velocity Verlet's cached acceleration,
-        a neighbour list and its storage order), after the state was written."""
+        a neighbour list and its storage order), after the state was written; ``end_history``
+        (new positions) also ends the list's tangential springs (the stamped tables end by the
+        spin clock)."""
         if hasattr(self.work, "a0_valid"):
             self.work.a0_valid[worlds] = False
         if self.lists is not None:
-            self.lists.reset(worlds)
+            self.lists.reset(worlds, end_history)
 
     def step(self, n: int, worlds: np.ndarray | None = None) -> int:
         """Advance the listed worlds (default: all) by n steps of dt. Returns how many blew up."""
@@ -370,7 +373,11 @@ class Runner:
             # parallel region; round robin, so a batch of equal worlds splits evenly)
             parts = [worlds[t::threads] for t in range(min(threads, len(worlds)))]
             dispatch(lambda part: lists.step(*args, worlds=part, serial=True), [(p,) for p in parts])
-        elif threads == 1 or balls < SERIAL_MAX_BALLS or numba.get_num_threads() == 1:
+        elif (
+            threads == 1
+            or balls < (SERIAL_MAX_SPIN_BALLS if lists.spins else SERIAL_MAX_BALLS)
+            or numba.get_num_threads() == 1
+        ):
             # no parallel region: its launch costs more than it saves (and with
             # numba.set_num_threads(1) it saves nothing: 75 against 86 ns a ball-step at 10^4, measured)
             lists.step(*args, worlds=worlds, serial=True)

@@ -144,7 +144,7 @@ class StateView:
             self._check_start(chosen.astype(np.int64))
             if self._spin is not None:
                 self._spin.clock[idx] += 2  # every stamp is now stale: no contact continues
-        self._runner.forget(idx)
+        self._runner.forget(idx, end_history=positions is not None)
 
     def invalidate_cache(self, worlds: Any = None) -> None:
         """``World.invalidate_cache`` (its docstring says what it does)."""
