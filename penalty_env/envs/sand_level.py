@@ -164,7 +164,8 @@ class PenaltySandLevelEnv(TaskEnv):
     twice the pairs' (a grain on a plane has twice a pair's effective mass: the same omega, half
     the overlap); the substep is at most 0.8 of the stability limit (at the limit a settled bed
     jitters in place and never comes to rest). 70 substeps of 1.4 ms per 0.1 s step; the settled
-    bed's largest overlap 0.17 r (docs/level.md).
+    bed's largest overlap 0.17 r (docs/level.md). v1 steps on the core's neighbour-list path
+    (randomised: the scalar path, whose parameters are per world).
 
     ## Rendering
 
