@@ -141,3 +141,12 @@ def test_the_settled_mound_is_no_steeper_than_the_repose_angle(scene):
     angle, (rho, h), _ = profile_angle(x, np.full(len(x), 0.5), np.zeros(2), 3, 1.0)
     assert angle <= 26.1 + 1.5
     assert h.max() >= 3.0  # a mound: at least three layers of grains at its crest
+
+
+def test_v1_defaults_and_v0_unchanged():
+    """The version's defaults (grains, target, success threshold) without settling anything."""
+    p1 = LS._parameters(3, {}, "test", V1)
+    p0 = LS._parameters(3, {}, "test", LS.LEVEL_VERSIONS[0])
+    assert (p1["grains"], p1["target"], p1["success_fraction"]) == (2000, "random", 0.75)
+    assert (p0["grains"], p0["target"], p0["success_fraction"]) == (250, "flat", 0.5)
+    assert LS._parameters(3, {"success_fraction": 0.6, "target": "flat"}, "test", V1)["success_fraction"] == 0.6

@@ -18,7 +18,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..._jit import entry_point, njit, python_twin
+from ..._jit import compile_notice, entry_point, njit, python_twin
 from ...physics import theory
 from ...physics.model import inertia_factor
 from ...physics.world.parameters import rolling_defaults
@@ -317,7 +317,8 @@ class Randomizer:
         assert self.rows is not None
         args = (idx, d, self.derive_rule, self._grid, self._zetas, self.world_arrays, self.rows)
         if self._kernel is None:
-            self._kernel = entry_point(derive_worlds, args)
+            with compile_notice("randomisation"):
+                self._kernel = entry_point(derive_worlds, args)
         self._kernel(*args)
 
     def __getstate__(self) -> dict:

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ..._jit import entry_point, njit
+from ..._jit import compile_notice, entry_point, njit
 from ...physics import Bowl, HeightField
 from .base import BUMPY, Terrain, TerrainHeights
 
@@ -77,7 +77,8 @@ class BumpyTerrain(Terrain):
             else:
                 args = (height, g[0], g[1], False, self.bowl_floor, scratch, out[a:b])
             if self._kernel is None:
-                self._kernel = entry_point(bump_fields, args)
+                with compile_notice("bumpy terrain"):
+                    self._kernel = entry_point(bump_fields, args)
             self._kernel(*args)
         return out
 

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ..._jit import entry_point
+from ..._jit import compile_notice, entry_point
 from ..broadphase.history import CARRY_NEEDED, OVERFLOW_NEEDED, ListHistory, new_list_history
 from ..broadphase.verlet import SlimModel, new_large_world
 from ..contact.listed import PAIR_BLOCK, PAIR_ROWS
@@ -54,6 +54,7 @@ class NeighbourLists:
         self.worlds: list[tuple[Any, SlimModel]] = []
         self.full: list[Any] = []  # per world: its Model with its own shape table (world b's as world 0)
         self._entry: Any = None  # run_large_serial's (or run_large_spin_serial's) compiled entry
+        self._parallel_called = False  # (the first parallel call may compile: said once, compile_notice)
         self.spin = spin
         self.spins: list[tuple[Spin, Spin, ListHistory]] = []  # per world: (its Spin, the escaped tables, the rest)
         self.shapes = model.shapes.count
@@ -152,10 +153,22 @@ class NeighbourLists:
                     args = (integ, n - done, dt, x[w], v[w], ext[w], has_ext, model, g, status[w], lw, 1, self.full[b])
                     done += self._serial_entry(args)(*args)
                 else:
-                    threads = self.threads
-                    done += run_large(
-                        integ, n - done, dt, x[w], v[w], ext[w], has_ext, model, g, status[w], lw, threads, self.full[b]
+                    args = (
+                        integ,
+                        n - done,
+                        dt,
+                        x[w],
+                        v[w],
+                        ext[w],
+                        has_ext,
+                        model,
+                        g,
+                        status[w],
+                        lw,
+                        self.threads,
+                        self.full[b],
                     )
+                    done += self._parallel(run_large, args)
                 if status[b] != STATUS_OK:
                     break
                 if done < n and not (self.spins and self._grow_history(b)):
@@ -182,7 +195,16 @@ class NeighbourLists:
         args = (integ, n, dt, x, v, w, ext, has_ext, model, g, status, lw, sp, over, lh, threads, self.full[b])
         if serial:
             return int(self._serial_entry(args)(*args))
-        return int(run_large_spin(*args))
+        return int(self._parallel(run_large_spin, args))
+
+    def _parallel(self, fn: Any, args: tuple) -> int:
+        """``fn(*args)`` (:func:`run_large` or :func:`run_large_spin`), the first call in a
+        :class:`compile_notice` (it may compile for seconds)."""
+        if getattr(self, "_parallel_called", False):  # (a pickle of an older World lacks it)
+            return int(fn(*args))
+        self._parallel_called = True
+        with compile_notice("neighbour-list step, parallel" + (" (spinning)" if self.spins else "")):
+            return int(fn(*args))
 
     def _grow_history(self, b: int) -> bool:
         """After a spinning world's steps stopped short: grow the table that was too small (the
@@ -220,7 +242,8 @@ class NeighbourLists:
         per-call type resolution (a microsecond per field of each NamedTuple argument, paid per
         world and call). Every argument's type is fixed by the World."""
         if self._entry is None:
-            self._entry = entry_point(run_large_spin_serial if self.spins else run_large_serial, args)
+            with compile_notice("neighbour-list step" + (" (spinning)" if self.spins else "")):
+                self._entry = entry_point(run_large_spin_serial if self.spins else run_large_serial, args)
         return self._entry
 
     def __getstate__(self) -> dict:
