@@ -10,7 +10,7 @@ Each figure is the best of three interleaved timed windows (after a warm-up that
 kernels and settles the heap), so a burst of load from another process does not set a figure.
 
 ``--lammps``: v1's settled bed (2,000 grains, the blade lifted out) stepped at v1's dt by ours
-(the env's path, and the neighbour-list path, on 1 and 2 threads) and by LAMMPS (``pair_style
+(the scalar path and the neighbour-list path, one thread) and by LAMMPS (``pair_style
 granular``: hooke, linear_history, rolling sds; the floor and walls ``fix wall/gran`` planes with
 the World's terrain spring; ``bench.peer_lammps``, one thread), interleaved in rounds:
 grain-steps per second each.
@@ -119,7 +119,7 @@ def main(argv=None) -> dict[str, float]:
 
 def bed_against_lammps(scene: SandLevelScene, rounds: int = 3, steps: int = 700) -> dict[str, float]:
     """The scene's settled bed without its blade, ``steps`` steps of its dt per block: ours (the
-    env's stepping path and the neighbour list, 1 and 2 threads) and LAMMPS (one thread), in
+    scalar path and the neighbour list, one thread) and LAMMPS (one thread), in
     ``rounds`` interleaved rounds; grain-steps/s, the best block of each."""
     from penalty_env.bench.peer_lammps import Lammps, find_lammps, run_lammps
     from penalty_env.physics import World
@@ -138,12 +138,11 @@ def bed_against_lammps(scene: SandLevelScene, rounds: int = 3, steps: int = 700)
     try:
         for _ in range(rounds):
             for path, w in worlds.items():
-                for threads in (1, 2):
-                    numba.set_num_threads(min(threads, saved))
-                    t = time.perf_counter()
-                    w.step(steps)
-                    key = f"ours, {path}, {threads} thread{'s' if threads > 1 else ''}"
-                    rates[key] = max(rates.get(key, 0.0), n * steps / (time.perf_counter() - t))
+                numba.set_num_threads(1)  # (a spinning world this size steps serially on any count)
+                t = time.perf_counter()
+                w.step(steps)
+                key = f"ours, {path}"
+                rates[key] = max(rates.get(key, 0.0), n * steps / (time.perf_counter() - t))
             numba.set_num_threads(saved)
             if isinstance(peer, Lammps):
                 w = worlds["neighbour_list"]

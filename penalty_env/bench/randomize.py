@@ -88,7 +88,7 @@ def main(argv: Any = None) -> None:
         for env in (fixed, rand):
             env.reset(seed=0)
             if mode == "staggered":  # (the same step counts in both)
-                env._steps[:] = np.random.default_rng(1).integers(0, env.max_episode_steps, env.num_envs)
+                env.batch.steps[:] = np.random.default_rng(1).integers(0, env.batch.max_episode_steps, env.num_envs)
             _rate(env, 5, rng)  # warm-up (compiles)
         t = time.perf_counter()
         _rate(fixed, 5, rng)

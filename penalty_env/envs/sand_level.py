@@ -102,7 +102,7 @@ class PenaltySandLevelEnv(TaskEnv):
     ## Starting State
 
     The heap is settled once per configuration and process (grains dropped from a lattice cone of
-    35 degrees in the centre, stepped with the scene's own physics for at least 15 s and until no
+    35 degrees in the centre, v1 25, stepped with the scene's own physics for at least 15 s and until no
     grain moves faster than 5 mm/s) and cached; each reset starts from it, at rest, turned by a
     uniform quarter turn (3D) or mirrored with probability 1/2 (2D). The blade starts at rest at
     one of the two x ends of its range (the side uniform), in 3D at a uniform y within its range,
@@ -127,8 +127,10 @@ class PenaltySandLevelEnv(TaskEnv):
 
     ## Arguments
 
-    `gymnasium.make("PenaltySandLevel-v0", **kwargs)`; `target` is `"flat"` (default) or
-    `"random"`; the others:
+    `gymnasium.make("PenaltySandLevel-v0", **kwargs)`; `target` is `"flat"` (v0's default) or
+    `"random"` (v1's); `version` (registered: 0, or 1 for `PenaltySandLevel-v1`) selects the
+    grains, contact budget and defaults of `penalty_env.envs.level.scene.LEVEL_VERSIONS`; the
+    others:
 
     {parameters}
 
@@ -160,9 +162,9 @@ class PenaltySandLevelEnv(TaskEnv):
     `env.unwrapped.scene.describe()` prints the values.
 
     v1's budget (`penalty_env.envs.level.scene.LEVEL_VERSIONS`): an impact at the blade's top speed
-    and the start column's weight overlap at most 20% of a radius; the floor's and walls' spring is
-    twice the pairs' (a grain on a plane has twice a pair's effective mass: the same omega, half
-    the overlap); the substep is at most 0.8 of the stability limit (at the limit a settled bed
+    and the start column's weight overlap at most 20% of a radius; the terrain's spring (floor,
+    walls and blade) is twice the pairs' (a grain on a shape has twice a pair's effective mass: the
+    same omega, half the overlap); the substep is at most 0.8 of the stability limit (at the limit a settled bed
     jitters in place and never comes to rest). 70 substeps of 1.4 ms per 0.1 s step; the settled
     bed's largest overlap 0.17 r (docs/level.md). v1 steps on the core's neighbour-list path
     (randomised: the scalar path, whose parameters are per world).

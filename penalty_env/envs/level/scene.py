@@ -91,13 +91,13 @@ class LevelPhysics:
 # v1: 2,000 grains of 0.04 m (the same density: a flattened bed 2.8 grains deep), random targets,
 # a lower start cone (25 degrees: the mound fits the arena); springs from the blade's top speed at
 # 20% of a radius, the budget a bed's height map still reads (docs/level.md). Two more terms:
-# - the floor and walls' spring twice the pairs': a grain on a plane has m_eff = m, twice a pair's
+# - the terrain's spring (floor, walls and blade) twice the pairs': a grain on a shape has m_eff = m, twice a pair's
 #   m / 2, so 2 ks gives the pairs' omega (no shorter substep) and halves the floor's overlap under
 #   a column (measured on the settled bed: the largest 0.23 r at 1 x, 0.13 r at 2 x);
 # - the substep at 0.8 of the stability limit, not at it: there the symplectic step's eigenvalue is
 #   -1, a period-two mode that neither grows nor decays, and a bed never comes to rest (measured:
 #   500 of 2,000 grains jitter in place above 2 mm/s after 40 s at the limit; 3 at 0.8 of it);
-# - the neighbour-list path (2.6x the scalar path on the settled bed, one thread: bench level
+# - the neighbour-list path (2.7x the scalar path on the settled bed, one thread: bench level
 #   --lammps), but for a randomised scene (per-world physics: the scalar path);
 # - success at 0.75 of the initial error: the raster sweep ends at 0.63-0.82 of it (random
 #   targets) and 0.74-0.77 (flat), a random policy at about 0.97 (docs/level.md, section 8).
@@ -583,15 +583,18 @@ class SandLevelScene:
         obs[idx, 2 * C + h :] = np.clip(self.blade_velocity[idx, :-1], -self.top_speed, self.top_speed)
 
     def frame(self, b: int, scale: int = 16) -> np.ndarray:
-        """World b as a uint8 RGB image: from v1 a picture of the grains (:meth:`grains_picture`)
-        on the left; then the height map and the target, each cell a ``scale``-pixel square (2D: a
+        """World b as a uint8 RGB image: from v1 a picture of the grains (:meth:`grains_picture`;
+        in 3D turned to the maps' orientation, x down the rows and y across) on the left; then the height map and the target, each cell a ``scale``-pixel square (2D: a
         column of bars), grey by height (white at 0.5 m), the blade's cell red on the map."""
         maps = self.maps_picture(b, scale)
         if self.phys.version == 0:
             return maps
         side = maps.shape[0]
         gap = np.full((side, scale // 4, 3), 255, dtype=np.uint8)
-        return np.concatenate([self.grains_picture(b, side), gap, maps], axis=1)
+        grains = self.grains_picture(b, side)
+        if self.dim == 3:  # turned to the maps' orientation: x down the rows, y across the columns
+            grains = np.ascontiguousarray(grains[::-1].transpose(1, 0, 2))
+        return np.concatenate([grains, gap, maps], axis=1)
 
     def grains_picture(self, b: int, size: int) -> np.ndarray:
         """World b's grains as a uint8 RGB image ``size`` pixels square: in 3D from above (x right,
@@ -755,7 +758,9 @@ def settled_heap(scene: SandLevelScene) -> np.ndarray:
         scene.kd,
         scene.ks_terrain,
         scene.kd_terrain,
-    ) + (() if scene.phys == LEVEL_VERSIONS[0] else astuple(scene.phys))  # (v0's key as before)
+    ) + (() if scene.phys == LEVEL_VERSIONS[0] else astuple(scene.phys) + (scene.world_kwargs["stepping"],))
+    # (v0's key as before; another version's adds its physics and the path that settled it: a
+    # randomised scene settles on the scalar path)
     known = remembered_bed(
         _HEAPS, "sand_level_heap", key, lambda: _settle(scene), f"the heap ({scene.n_grains} grains)", SETTLE_SPEED
     )

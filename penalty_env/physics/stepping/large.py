@@ -31,7 +31,8 @@ state, so splitting the steps over calls changes nothing.
 One algorithm, two compilations: :func:`run_large` runs its loops parallel over the balls (a single
 large world), :func:`run_large_serial` (the same source without parallel regions, the GIL released)
 runs them on the calling thread: the runner steps a batch so, a share of its worlds per thread, and
-a world under ``SERIAL_MAX_BALLS`` alone. The result is the same bit for bit.
+a world under ``SERIAL_MAX_BALLS`` alone (spinning balls: ``.large_spin.SERIAL_MAX_SPIN_BALLS``). The
+result is the same bit for bit.
 """
 
 from __future__ import annotations
