@@ -102,6 +102,7 @@ TUNED: dict[str, dict[str, Any]] = {
     "PenaltyBallsSand2D-v1": _SAND,
     "PenaltySandLevel-v0": _LEVEL,
     "PenaltySandLevel2D-v0": _LEVEL,
+    "PenaltySandLevel-v1": _LEVEL,  # (v0's settings, not tuned on v1: docs/level.md section 8)
 }
 CURRICULUM: dict[str, str] = {
     "PenaltyBallsSand-v0": "PenaltyBalls-v1",

@@ -36,7 +36,10 @@ def test_registered_beside_v0():
 
 @pytest.fixture(scope="module")
 def scene():
-    return SL.SandLevelScene(1, dim=3, version=1)
+    s = SL.SandLevelScene(1, dim=3, version=1)
+    assert s._bed is None  # v1 settles its heap on the first reset (or asked for), not at make
+    s.bed  # noqa: B018 (settled here)
+    return s
 
 
 def _overlaps(x: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:

@@ -3,6 +3,7 @@ rl-zoo3 trains a registered id with it."""
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -44,7 +45,10 @@ def test_train_ppo_defaults_are_the_tuned_settings():
 
 
 def test_rl_zoo3_trains_with_the_file(tmp_path):
-    pytest.importorskip("rl_zoo3")
+    # (looked up, not imported: importing rl_zoo3 replaces gymnasium's TimeLimit with its own,
+    # which adds an info key at truncation, for every later test in this process)
+    if importlib.util.find_spec("rl_zoo3") is None:
+        pytest.skip("rl_zoo3 is not installed")
     cmd = [
         sys.executable,
         "-m",

@@ -225,12 +225,23 @@ class SandLevelScene:
         self.depth_unit = volume / (cell ** (d - 1) * PACKING[d])  # one grain's depth over one cell
         self._check_fits()
         self._contact_model()
-        self.bed = settled_heap(self)
+        self._bed: np.ndarray | None = None
+        if phys.version == 0:
+            self._bed = settled_heap(self)  # (v0 settles at make, as it always has)
         self._make_world()
         self._spaces()
         self._buffers()
 
     # ------------------------------------------------------------------ construction
+    @property
+    def bed(self) -> np.ndarray:
+        """The settled heap every reset starts from, (n, d), read-only: settled at make in v0; from
+        v1 on the first reset (or this property) settles it, so a make is quick (the 2,000-grain
+        heap takes seconds, then lies on disk for later processes)."""
+        if self._bed is None:
+            self._bed = settled_heap(self)
+        return self._bed
+
     def _check_fits(self) -> None:
         """The grains' flat level (their volume over the arena at the map's packing) at most
         ``MAX_LEVEL``: a deeper bed would bury the blade's lowest setting under grains."""
@@ -336,7 +347,10 @@ class SandLevelScene:
         return out
 
     def _make_world(self) -> None:
-        start = np.repeat(self.bed[None], self.n_worlds, axis=0)
+        # (from v1 the World starts from the start lattice: every world is set to the settled heap
+        # at its first reset, which ends every contact; no world steps before it)
+        first = self._bed if self._bed is not None else self.heap_lattice(self.n_grains)
+        start = np.repeat(first[None], self.n_worlds, axis=0)
         kwargs = dict(self.world_kwargs, per_world=True) if self.randomize else self.world_kwargs
         self.world = World(start, self.radii, self.masses, dt=self.dt, **kwargs)
         # each world's blade speed (a randomised scene's drawn ones; the bound of the observation's
