@@ -93,7 +93,7 @@ def test_check_env_and_the_picture_of_the_grains():
         env.step(np.array([1.0, 0.0], dtype=np.float32))
     img = env.render()
     scene = env.unwrapped.scene
-    maps = scene.maps_picture(0)
+    maps = scene.renderer().maps_picture(0)
     side = maps.shape[0]
     assert img.dtype == np.uint8 and img.shape[0] == side and img.shape[1] > side + maps.shape[1]
     np.testing.assert_array_equal(img[:, -maps.shape[1] :], maps)  # the maps on the right, as v0's
@@ -108,7 +108,7 @@ def test_check_env_and_the_picture_of_the_grains():
     v0 = gym.make("PenaltySandLevel-v0", render_mode="rgb_array")
     v0.reset(seed=0)
     assert v0.unwrapped.scene.phys is LS.LEVEL_VERSIONS[0]
-    np.testing.assert_array_equal(v0.render(), v0.unwrapped.scene.maps_picture(0))
+    np.testing.assert_array_equal(v0.render(), v0.unwrapped.scene.renderer().maps_picture(0))
 
 
 @pytest.mark.slow

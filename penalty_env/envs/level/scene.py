@@ -8,7 +8,7 @@ Units are SI (metres, kilograms, seconds). The last axis is up.
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, dataclass
+from dataclasses import astuple
 from typing import Any
 
 import numpy as np
@@ -21,6 +21,7 @@ from ..contact import ContactRule, configure_task, derive, substeps_for
 from ..randomize import Field, check_override, check_ranges, draw
 from ..terrains.arena import walls as arena_walls
 from . import kernel as LK
+from .versions import GRAIN_MASS, GRAIN_RADIUS, HEAP_SLOPE, LEVEL_VERSIONS, LevelPhysics
 
 __all__ = [
     "SandLevelScene",
@@ -30,14 +31,15 @@ __all__ = [
     "LEVEL_PARAMETERS",
     "LEVEL_EPISODE_STEPS",
     "settled_heap",
+    "GRAIN_RADIUS",
+    "GRAIN_MASS",
+    "HEAP_SLOPE",
 ]
 
 # ----------------------------------------------------------------------------------------------
 # The task's constants (the env docstring's tables)
 # ----------------------------------------------------------------------------------------------
 HALF_WIDTH = 1.0  # the arena's walls stand this far from the centre, m
-GRAIN_RADIUS = 0.06  # m
-GRAIN_MASS = 0.5  # kg (PenaltyBallsSand-v1's grains)
 GRAIN_FRICTION = 0.5  # Coulomb mu of every contact (grains, floor, walls, blade)
 GRAIN_ROLLING = 0.1  # rolling resistance mu_r (docs/granular.md section 2: a heap stands)
 GRAVITY = 9.81
@@ -49,75 +51,12 @@ MAX_LEVEL = 0.4  # the grains' flat level may be at most this deep, m
 # the blade's bottom rides a grain radius above the target surface (a bed's grain tops stand about
 # a radius above its depth), and never below LevelPhysics.blade_floor
 REWARD_SCALE = 100.0  # reward per metre of decrease of the height-map error (1 per cm)
-HEAP_SLOPE = 35.0  # the grains start on a lattice cone of this slope (degrees), then settle
 HEAP_LATTICE = 2.1  # ... its sites this many radii apart (jittered by 5% of a radius)
 SETTLE_TIME = (15.0, 40.0)  # the heap settles for at least / at most this much simulated time, s
 SETTLE_SPEED = 0.005  # ... until no grain moves faster than this, m/s
 TARGET_AMPLITUDE = (0.25, 0.5)  # target="random": the relief's half range, x the flat level (uniform)
 LEVEL_EPISODE_STEPS = {3: 300, 2: 150}  # the registered ids' episode length (25 s and 15 s)
 
-
-@dataclass(frozen=True)
-class LevelPhysics:
-    """What a version of the task fixes: its grains, their default count, the contact budget the
-    springs and the substep are derived from, and the default target.
-
-    The springs come from ``configure`` (:meth:`SandLevelScene._contact_model`): a grain struck at
-    ``impact`` x the blade's top speed (per axis, times sqrt(d - 1) for a diagonal move) overlaps
-    at most ``overlap`` x its radius, and so does a grain under a column of grains as tall as the
-    heap's start (the heap's static load, which fixes the spring's omega whatever the mass:
-    docs/level.md, "The spring the task needs")."""
-
-    version: int
-    grain_radius: float  # m
-    grain_mass: float  # kg
-    grains: tuple[int, int]  # the default count (3D, 2D)
-    impact: float  # the springs' impact speed, x the blade's top speed (x sqrt(d - 1))
-    overlap: float  # the overlap budget, x the grain radius
-    target: str  # the default target
-    heap_slope: float = HEAP_SLOPE  # the start lattice's cone, degrees
-    floor_stiffening: float = 1.0  # ks_terrain = this x the derived one (kd_terrain x its root: the same zeta)
-    step_margin: float = 1.0  # the substep at most this fraction of the core's stability limit
-    stepping: str = "scalar"  # the World's stepping path (a randomised scene's per-world physics: "scalar")
-    success_fraction: float | None = None  # the default success threshold (None: LEVEL_PARAMETERS' by dim)
-
-    @property
-    def blade_floor(self) -> float:
-        """The blade's bottom never goes below one grain layer plus 1 cm, m."""
-        return 2.0 * self.grain_radius + 0.01
-
-
-# v0: 250 grains of 0.06 m; springs from twice the blade's top speed at 10% of a radius.
-# v1: 2,000 grains of 0.04 m (the same density: a flattened bed 2.8 grains deep), random targets,
-# a lower start cone (25 degrees: the mound fits the arena); springs from the blade's top speed at
-# 20% of a radius, the budget a bed's height map still reads (docs/level.md). Two more terms:
-# - the terrain's spring (floor, walls and blade) twice the pairs': a grain on a shape has m_eff = m, twice a pair's
-#   m / 2, so 2 ks gives the pairs' omega (no shorter substep) and halves the floor's overlap under
-#   a column (measured on the settled bed: the largest 0.23 r at 1 x, 0.13 r at 2 x);
-# - the substep at 0.8 of the stability limit, not at it: there the symplectic step's eigenvalue is
-#   -1, a period-two mode that neither grows nor decays, and a bed never comes to rest (measured:
-#   500 of 2,000 grains jitter in place above 2 mm/s after 40 s at the limit; 3 at 0.8 of it);
-# - the neighbour-list path (2.7x the scalar path on the settled bed, one thread: bench level
-#   --lammps), but for a randomised scene (per-world physics: the scalar path);
-# - success at 0.75 of the initial error: the raster sweep ends at 0.63-0.82 of it (random
-#   targets) and 0.74-0.77 (flat), a random policy at about 0.97 (docs/level.md, section 8).
-LEVEL_VERSIONS: dict[int, LevelPhysics] = {
-    0: LevelPhysics(0, GRAIN_RADIUS, GRAIN_MASS, (250, 24), 2.0, 0.1, "flat"),
-    1: LevelPhysics(
-        version=1,
-        grain_radius=0.04,
-        grain_mass=GRAIN_MASS * (0.04 / GRAIN_RADIUS) ** 3,
-        grains=(2000, 80),
-        impact=1.0,
-        overlap=0.2,
-        target="random",
-        heap_slope=25.0,
-        floor_stiffening=2.0,
-        step_margin=0.8,
-        stepping="neighbour_list",
-        success_fraction=0.75,
-    ),
-}
 
 # keyword arguments: default (3D, 2D), allowed range, meaning
 LEVEL_PARAMETERS: dict[str, tuple[Any, Any, Any, str]] = {
@@ -262,7 +201,8 @@ class SandLevelScene:
         substep keeps its worst-case restitution error within 30% and the core's stability limit
         for every contact."""
         d, T, phys = self.dim, self.control_period, self.phys
-        column = math.ceil(self.heap_lattice(self.n_grains)[:, -1].max() / (2.0 * phys.grain_radius)) + 1
+        self.lattice = lattice = self.heap_lattice(self.n_grains)  # (the start before settling)
+        column = math.ceil(lattice[:, -1].max() / (2.0 * phys.grain_radius)) + 1
         # randomised: the springs of the fastest blade and the heaviest grains (the corners that
         # need the stiffest), the substep of the lightest grains with them
         speed = self.randomize.get("blade_speed", (self.blade_speed,) * 2)[1]
@@ -279,11 +219,10 @@ class SandLevelScene:
         pair = np.full(2, m_hi), np.full(2, phys.grain_radius)
         self.config = configure_task(rule, *pair)
         springs = derive(rule, *pair, (0, 1), m_hi, self.config.zeta, self.config.stiffening)
-        if phys.floor_stiffening != 1.0:
-            springs = springs._replace(
-                ks_terrain=springs.ks_terrain * phys.floor_stiffening,
-                kd_terrain=springs.kd_terrain * math.sqrt(phys.floor_stiffening),
-            )
+        springs = springs._replace(  # (x 1.0 in v0: the same floats)
+            ks_terrain=springs.ks_terrain * phys.floor_stiffening,
+            kd_terrain=springs.kd_terrain * math.sqrt(phys.floor_stiffening),
+        )
         self.ks, self.kd, self.ks_terrain, self.kd_terrain = springs
         self.gravity = GRAVITY
         self.world_kwargs: dict[str, Any] = dict(
@@ -303,14 +242,11 @@ class SandLevelScene:
             tangential="history",  # a tangential spring: static friction, so a heap stands (granular.md)
             start_check=False,
         )
-        lattice = self.heap_lattice(self.n_grains)
         probe = World(lattice, self.radii, self.masses, dt=T, allow_unstable=True, **self.world_kwargs)
         limit = probe.stability_limit()
         if m_lo != phys.grain_mass:  # the lightest grains' contacts are the shortest
             limit = min(limit, probe.stability_limit_for(np.full(self.n_grains, m_lo), self.radii, *springs))
-        self.substeps = substeps_for(
-            T, min(self.config.dt, limit if phys.step_margin == 1.0 else phys.step_margin * limit)
-        )
+        self.substeps = substeps_for(T, min(self.config.dt, phys.step_margin * limit))  # (x 1.0 in v0)
         self.dt = T / self.substeps
 
     def _terrain(self) -> tuple:
@@ -349,7 +285,7 @@ class SandLevelScene:
     def _make_world(self) -> None:
         # (from v1 the World starts from the start lattice: every world is set to the settled heap
         # at its first reset, which ends every contact; no world steps before it)
-        first = self._bed if self._bed is not None else self.heap_lattice(self.n_grains)
+        first = self._bed if self._bed is not None else self.lattice
         start = np.repeat(first[None], self.n_worlds, axis=0)
         kwargs = dict(self.world_kwargs, per_world=True) if self.randomize else self.world_kwargs
         self.world = World(start, self.radii, self.masses, dt=self.dt, **kwargs)
@@ -596,84 +532,6 @@ class SandLevelScene:
         obs[idx, 2 * C : 2 * C + h] = self.blade[idx, :-1]
         obs[idx, 2 * C + h :] = np.clip(self.blade_velocity[idx, :-1], -self.top_speed, self.top_speed)
 
-    def frame(self, b: int, scale: int = 16) -> np.ndarray:
-        """World b as a uint8 RGB image: from v1 a picture of the grains (:meth:`grains_picture`;
-        in 3D turned to the maps' orientation, x down the rows and y across) on the left; then the height map and the target, each cell a ``scale``-pixel square (2D: a
-        column of bars), grey by height (white at 0.5 m), the blade's cell red on the map."""
-        maps = self.maps_picture(b, scale)
-        if self.phys.version == 0:
-            return maps
-        side = maps.shape[0]
-        gap = np.full((side, scale // 4, 3), 255, dtype=np.uint8)
-        grains = self.grains_picture(b, side)
-        if self.dim == 3:  # turned to the maps' orientation: x down the rows, y across the columns
-            grains = np.ascontiguousarray(grains[::-1].transpose(1, 0, 2))
-        return np.concatenate([grains, gap, maps], axis=1)
-
-    def grains_picture(self, b: int, size: int) -> np.ndarray:
-        """World b's grains as a uint8 RGB image ``size`` pixels square: in 3D from above (x right,
-        y up, the arena filling the image), each grain a disc shaded by its height (dark at the
-        floor, light at twice the flat level), the highest drawn last; in 2D from the side (z up,
-        the floor at 0.8 of the image's height). The blade is a red outline (its footprint in
-        3D, its section in 2D), the walls dark lines. The observations' raster draws the discs."""
-        from ..views.raster import rgb_worlds
-
-        d, L = self.dim, HALF_WIDTH
-        x = np.ascontiguousarray(self.world.positions[b : b + 1])
-        up = x[0, :, -1]
-        shade = np.clip(up / (2.0 * max(self.flat_level, self.grain_radius)), 0.0, 1.0)[:, None]
-        low, high = np.array([120.0, 84.0, 40.0]), np.array([246.0, 222.0, 160.0])
-        colors = np.ascontiguousarray(low + shade * (high - low))
-        order = np.argsort(up, kind="stable").astype(np.int64) if d == 3 else np.arange(self.n_grains, dtype=np.int64)
-        scale = size / (2.0 * L)
-        ground = 0.8 * size
-        background = np.full((1, size, size, 3), 250, dtype=np.uint8)
-        if d == 2:
-            background[0, int(ground) :] = 200  # below the floor
-        out = np.empty((1, size, size, 3), dtype=np.uint8)
-        worlds = np.zeros(1, dtype=np.int64)
-        no_goal = np.full((1, d), np.nan)
-        rgb_worlds(worlds, out, x, self.radii[None], colors, order, no_goal, 0.0, background, worlds, scale, ground)
-        img = out[0]
-        # the blade: an outline of its footprint (3D) or section (2D)
-        lo = self.blade[b] - self.blade_half
-        hi = self.blade[b] + self.blade_half
-        axis = 1  # the image's vertical axis: y in 3D, z in 2D (index 1 either way)
-        origin = 0.5 * size if d == 3 else ground
-        c0, c1 = (np.clip(0.5 * size + v[0] * scale, 0, size - 1) for v in (lo, hi))
-        r0, r1 = (np.clip(origin - v[axis] * scale, 0, size - 1) for v in (hi, lo))
-        i0, i1, j0, j1 = int(r0), int(r1), int(c0), int(c1)
-        red = np.array([220, 30, 30], dtype=np.uint8)
-        for t in range(2):  # two pixels wide
-            img[i0 : i1 + 1, min(j0 + t, size - 1)] = red
-            img[i0 : i1 + 1, max(j1 - t, 0)] = red
-            img[min(i0 + t, size - 1), j0 : j1 + 1] = red
-            img[max(i1 - t, 0), j0 : j1 + 1] = red
-        img[:, :2] = img[:, -2:] = 60  # the walls
-        if d == 3:
-            img[:2] = img[-2:] = 60
-        return img
-
-    def maps_picture(self, b: int, scale: int = 16) -> np.ndarray:
-        """World b's height map (left) and target (right), each cell a ``scale``-pixel square (2D: a
-        column of bars), grey by height (white at 0.5 m), the blade's cell red on the map."""
-        n = self.cells
-        maps = np.stack([self.maps[b], self.targets[b]])
-        if self.dim == 2:
-            rows = np.arange(n)[::-1, None] * (0.5 / n)  # a bar chart: row k lit below the height
-            img = (maps[:, None, :] > rows[None]).astype(float) * 0.9
-        else:
-            img = np.clip(maps.reshape(2, n, n) / 0.5, 0.0, 1.0)
-        rgb = np.repeat(img[..., None], 3, axis=-1)
-        cell = np.clip(((self.blade[b, :-1] + HALF_WIDTH) * n / (2.0 * HALF_WIDTH)).astype(int), 0, n - 1)
-        if self.dim == 3:
-            rgb[0, cell[0], cell[1]] = (1.0, 0.0, 0.0)
-        else:
-            rgb[0, :, cell[0]] = rgb[0, :, cell[0]] * 0.5 + np.array([0.5, 0.0, 0.0])
-        gap = np.ones((n, 1, 3))
-        out = np.concatenate([rgb[0], gap, rgb[1]], axis=1)
-        return (np.kron(out, np.ones((scale, scale, 1))) * 255).astype(np.uint8)
-
     # ------------------------------------------------------------------ the engine's Task protocol
     info_keys = ("error", "initial_error", "grains_lost")
     int_info = ("grains_lost",)
@@ -739,7 +597,10 @@ class SandLevelScene:
         return int(np.argmax(bad)) if bad.any() else -1
 
     def renderer(self) -> Any:
-        return self  # (frame(b): the maps of world b)
+        """What draws the worlds (:class:`.picture.LevelPicture`: ``frame(b)``)."""
+        from .picture import LevelPicture
+
+        return LevelPicture(self)
 
     def describe(self) -> str:
         """The derived physics, one line."""
@@ -761,20 +622,20 @@ def settled_heap(scene: SandLevelScene) -> np.ndarray:
     and stepped with the scene's own physics (the blade parked above) for at least
     ``SETTLE_TIME[0]`` and until no grain moves faster than ``SETTLE_SPEED`` (at most
     ``SETTLE_TIME[1]``; a heap still moving then warns). Deterministic, cached per configuration."""
+    # the version's physics, the lattice, the springs and the path that settles it (a randomised
+    # scene settles on the scalar path)
     key = (
         "level",
         scene.dim,
         scene.n_grains,
-        scene.phys.heap_slope,
         HEAP_LATTICE,
         scene.dt,
         scene.ks,
         scene.kd,
         scene.ks_terrain,
         scene.kd_terrain,
-    ) + (() if scene.phys == LEVEL_VERSIONS[0] else astuple(scene.phys) + (scene.world_kwargs["stepping"],))
-    # (v0's key as before; another version's adds its physics and the path that settled it: a
-    # randomised scene settles on the scalar path)
+        scene.world_kwargs["stepping"],
+    ) + astuple(scene.phys)
     known = remembered_bed(
         _HEAPS, "sand_level_heap", key, lambda: _settle(scene), f"the heap ({scene.n_grains} grains)", SETTLE_SPEED
     )
@@ -784,6 +645,5 @@ def settled_heap(scene: SandLevelScene) -> np.ndarray:
 
 
 def _settle(scene: SandLevelScene) -> tuple[np.ndarray, float, float]:
-    lattice = scene.heap_lattice(scene.n_grains)
-    world = World(lattice, scene.radii, scene.masses, dt=scene.dt, **scene.world_kwargs)
+    world = World(scene.lattice, scene.radii, scene.masses, dt=scene.dt, **scene.world_kwargs)
     return settle(world, scene.dt, SETTLE_TIME, SETTLE_SPEED)

@@ -5,16 +5,17 @@ per-world arrays; the derived defaults (kf, kr, inertia) shared with the randomi
 
 from __future__ import annotations
 
-from typing import Any
+import math
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from ... import _validate as V
 from ..._jit import njit, python_twin
 from ..model import Model, inertia_factor
-from .guard import StabilityGuard
+from .guard import StabilityGuard, lightest_inertia, lightest_tangential_mass
 
-__all__ = ["Parameters", "per_world_model", "lightest_pair", "rolling_defaults"]
+__all__ = ["Parameters", "per_world_model", "lightest_pair", "rolling_defaults", "Tangential", "tangential_parameters"]
 
 _SCALARS = ("ks", "kd", "ks_terrain", "kd_terrain", "mu", "kf")
 
@@ -283,3 +284,59 @@ def _check_values(name: str, a: np.ndarray, positive: bool) -> None:
     bad = a <= 0.0 if positive else a < 0.0
     if np.any(bad):
         raise ValueError(f"{name} must be {'> 0' if positive else '>= 0'}, got {float(a[bad][0])!r}")
+
+
+class Tangential(NamedTuple):
+    """A World's tangential and rolling law's slopes and springs, and the explicit limits they are
+    held to (:func:`tangential_parameters`)."""
+
+    kf: float  # friction's viscous slope below the Coulomb cap
+    kf_max: float  # its explicit limit: the lightest contact's tangential m_eff / dt
+    kt: float  # the history model's spring (default 2/7 ks)
+    kd_t: float  # its dashpot (default kd / 2)
+    kr: float  # rolling resistance's viscous slope (0 without rotation)
+    kr_max: float  # its explicit limit: the lightest contact's inertia / dt (inf without rotation)
+
+
+def tangential_parameters(
+    masses: np.ndarray,
+    radii: np.ndarray,
+    rotation: bool,
+    d: int,
+    dt: float,
+    ks: float,
+    kd: float,
+    mu: float,
+    mu_r: float,
+    kf: Any,
+    kt: Any,
+    kd_t: Any,
+    kr: Any,
+    allow_unstable: bool,
+) -> Tangential:
+    """kf, kt, kd_t, kr: given or defaulted, and held to their explicit limits (ValueError naming
+    the argument, unless ``allow_unstable``)."""
+    # Friction's viscous branch -kf v_t is integrated explicitly (also by implicit Euler):
+    # it brings sliding to rest without overshoot only while kf dt / m_eff <= 1 (at 2 it
+    # reverses v_t every step and feeds energy in). The default sits at that limit, which is
+    # the closest a regularised law gets to Coulomb's stick at this dt.
+    kf_max = lightest_tangential_mass(masses, rotation, d) / dt
+    kf = V.positive("kf", kf_max if kf is None else kf)
+    if mu > 0.0 and kf > kf_max * (1.0 + 1e-12) and not allow_unstable:
+        raise ValueError(
+            f"kf={kf:g} is above the explicit friction limit m_eff/dt = {kf_max:g} "
+            f"(lightest contact {'tangential ' if rotation else ''}m_eff={kf_max * dt:g}, "
+            f"dt={dt:g}): sliding would overshoot and gain energy. Use kf <= {kf_max:g}, a smaller dt, "
+            "or allow_unstable=True."
+        )
+    kt = 2.0 / 7.0 * ks if kt is None else V.positive("kt", kt)
+    kd_t = 0.5 * kd if kd_t is None else V.non_negative("kd_t", kd_t)
+    kr_max = lightest_inertia(masses, radii, d) / dt if rotation else math.inf
+    kr = (kr_max if kr is None else V.positive("kr", kr)) if rotation else 0.0
+    if mu_r > 0.0 and kr > kr_max * (1.0 + 1e-12) and not allow_unstable:
+        raise ValueError(
+            f"kr={kr:g} is above the explicit rolling-resistance limit I_eff/dt = {kr_max:g} "
+            f"(lightest contact I_eff={kr_max * dt:g}, dt={dt:g}): rolling would overshoot "
+            f"and gain energy. Use kr <= {kr_max:g}, a smaller dt, or allow_unstable=True."
+        )
+    return Tangential(kf, kf_max, kt, kd_t, kr, kr_max)

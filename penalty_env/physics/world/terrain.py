@@ -11,9 +11,10 @@ from ... import _validate as V
 from ..geometry.evaluate import evaluate, evaluate_shape
 from ..geometry.heightfield import HeightField
 from ..geometry.table import DIRECT, INDEX, MOVING, ShapeTable, pose_columns
+from ..geometry.user import SDF
 from .checks import world_index
 
-__all__ = ["TerrainView", "per_world"]
+__all__ = ["TerrainView", "per_world", "probe_user_sdf"]
 
 
 def per_world(name: str, value: Any, shape: tuple[int, ...], count: int) -> np.ndarray:
@@ -244,3 +245,15 @@ class TerrainView:
             phi = np.where(closer, best[:, 0], phi)
             normal = np.where(closer[:, None], best[:, 1 : 1 + d], normal)
         return phi.reshape(pts.shape[:-1]), normal.reshape(pts.shape)
+
+
+def probe_user_sdf(shape: Any, x: np.ndarray) -> None:
+    """Refuse a user SDF that is not finite where the balls start or on a
+    lattice over their bounding box grown by twice its size (at least 2 either side) each way."""
+    lo, hi = x.reshape(-1, x.shape[-1]).min(0), x.reshape(-1, x.shape[-1]).max(0)
+    span = np.maximum(hi - lo, 1.0)
+    axes = [np.linspace(lo[k] - 2.0 * span[k], hi[k] + 2.0 * span[k], 7) for k in range(x.shape[-1])]
+    lattice = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, x.shape[-1])
+    points = np.concatenate([x.reshape(-1, x.shape[-1])[:4096], lattice])
+    assert isinstance(shape, SDF)
+    shape.probe(points)

@@ -15,7 +15,6 @@ physics parameters). The World's public methods are theirs, delegated.
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -33,17 +32,11 @@ from ..stepping.common import STATUS_CG, STATUS_NONFINITE
 from ..stepping.integrators import INTEGRATORS, allocate_work
 from ..stepping.runner import PATHS, Runner
 from .checks import Motor, ball_arrays, gravity_vector, motor_arrays, state_arrays, terrain_tuple, world_index
-from .guard import (
-    EnergyDriftWarning,
-    StabilityGuard,
-    StartCheck,
-    lightest_inertia,
-    lightest_tangential_mass,
-)
-from .parameters import Parameters, per_world_model
+from .guard import EnergyDriftWarning, StabilityGuard, StartCheck
+from .parameters import Parameters, per_world_model, tangential_parameters
 from .paths import Options, check_combinations, stepping_path
 from .state import Penetration, StateView
-from .terrain import TerrainView
+from .terrain import TerrainView, probe_user_sdf
 
 __all__ = ["World", "DAMPING_MODES", "BROADPHASES", "STEPPING"]
 
@@ -202,7 +195,13 @@ class World:
         )
         check_combinations(options)
         self._spinning = options.spinning
-        self._tangential_parameters(kf, kt, kd_t, kr)
+        law = tangential_parameters(
+            self.masses, self.radii, self.rotation, len(self.gravity), self.dt, self.ks, self.kd, self.mu, self.mu_r,
+            kf, kt, kd_t, kr, self.allow_unstable,
+        )  # fmt: skip
+        self.kf, self.kf_max, self.kt, self.kd_t, self.kr, self.kr_max = law
+        self._kf_default, self._kr_default = kf is None, kr is None  # (per-world Worlds re-derive defaults)
+        self._history = self.tangential == "history" and self.mu > 0.0
         lead = V.integer("grid_lead", grid_lead, 0, n - 1, "balls kept out of the grid")
         self.stepping = stepping_path(options, V.choice("stepping", stepping, STEPPING), B, n)
         self.guard = StabilityGuard(
@@ -232,36 +231,6 @@ class World:
             warnings.warn(self.guard.energy_message(), EnergyDriftWarning, stacklevel=2)
 
     # ---------------------------------------------------------------- construction
-    def _tangential_parameters(self, kf: Any, kt: Any, kd_t: Any, kr: Any) -> None:
-        """kf, kt, kd_t, kr: given or defaulted, and held to their explicit limits."""
-        # Friction's viscous branch -kf v_t is integrated explicitly (also by implicit Euler):
-        # it brings sliding to rest without overshoot only while kf dt / m_eff <= 1 (at 2 it
-        # reverses v_t every step and feeds energy in). The default sits at that limit, which is
-        # the closest a regularised law gets to Coulomb's stick at this dt.
-        d = len(self.gravity)
-        self.kf_max = lightest_tangential_mass(self.masses, self.rotation, d) / self.dt
-        self.kf = V.positive("kf", self.kf_max if kf is None else kf)
-        if self.mu > 0.0 and self.kf > self.kf_max * (1.0 + 1e-12) and not self.allow_unstable:
-            raise ValueError(
-                f"kf={self.kf:g} is above the explicit friction limit m_eff/dt = {self.kf_max:g} "
-                f"(lightest contact {'tangential ' if self.rotation else ''}m_eff={self.kf_max * self.dt:g}, "
-                f"dt={self.dt:g}): sliding would overshoot and gain energy. Use kf <= {self.kf_max:g}, a smaller dt, "
-                "or allow_unstable=True."
-            )
-        self._kf_default = kf is None  # (a per-world World re-derives a default kf from each world's masses)
-        self._kr_default = kr is None
-        self.kt = 2.0 / 7.0 * self.ks if kt is None else V.positive("kt", kt)
-        self.kd_t = 0.5 * self.kd if kd_t is None else V.non_negative("kd_t", kd_t)
-        self._history = self.tangential == "history" and self.mu > 0.0
-        self.kr_max = lightest_inertia(self.masses, self.radii, d) / self.dt if self.rotation else math.inf
-        self.kr = (self.kr_max if kr is None else V.positive("kr", kr)) if self.rotation else 0.0
-        if self.mu_r > 0.0 and self.kr > self.kr_max * (1.0 + 1e-12) and not self.allow_unstable:
-            raise ValueError(
-                f"kr={self.kr:g} is above the explicit rolling-resistance limit I_eff/dt = {self.kr_max:g} "
-                f"(lightest contact I_eff={self.kr_max * self.dt:g}, dt={self.dt:g}): rolling would overshoot "
-                f"and gain energy. Use kr <= {self.kr_max:g}, a smaller dt, or allow_unstable=True."
-            )
-
     def _new_spin(self, B: int, n: int, d: int) -> Spin | None:
         if not self._spinning:
             return None
@@ -302,7 +271,7 @@ class World:
         self._rows = packed.rows
         for shape in self.terrain:
             if isinstance(shape, SDF):
-                _probe_user(shape, x)
+                probe_user_sdf(shape, x)
         self._spin = self._new_spin(B, n, d)
         others = self.radii[lead:] if lead else self.radii
         self._lead = lead
@@ -709,15 +678,3 @@ class World:
             f"{'rotation=True, ' if self.rotation else ''}"
             f"terrain={len(self.terrain)} shapes)"
         )
-
-
-def _probe_user(shape: Shape, x: np.ndarray) -> None:
-    """Refuse a user SDF that is not finite where the balls start or on a
-    lattice over their bounding box grown by twice its size (at least 2 either side) each way."""
-    lo, hi = x.reshape(-1, x.shape[-1]).min(0), x.reshape(-1, x.shape[-1]).max(0)
-    span = np.maximum(hi - lo, 1.0)
-    axes = [np.linspace(lo[k] - 2.0 * span[k], hi[k] + 2.0 * span[k], 7) for k in range(x.shape[-1])]
-    lattice = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, x.shape[-1])
-    points = np.concatenate([x.reshape(-1, x.shape[-1])[:4096], lattice])
-    assert isinstance(shape, SDF)
-    shape.probe(points)
