@@ -22,6 +22,7 @@ COMMANDS = {
     "randomize": "penalty_env.bench.randomize",
     "level": "penalty_env.bench.level",
     "views": "penalty_env.bench.views",
+    "sand_profile": "penalty_env.bench.sand_profile",
 }
 
 

@@ -152,9 +152,11 @@ def lammps_pile_fill(seed: int, mu: float, mu_r: float) -> PileState:
     )
 
 
-def ours_pile(s: PileState, settle_time: float) -> Repose:
+def ours_pile(s: PileState, settle_time: float) -> tuple[Repose, str]:
     """Lift and measure ``s`` in a fresh World, with ``repose_lift``: ``repose``'s lift, but without
-    the fill's contact history (as LAMMPS starts), so another realisation of ``repose``'s pile."""
+    the fill's contact history (as LAMMPS starts), so another realisation of ``repose``'s pile.
+    Returns the pile and the World's stepping path (``auto``'s choice: the neighbour list for a
+    pile of this size)."""
     tick = time.time()
     terrain = repose_terrain(3, s.R, s.half, s.wall_t, s.z0)
     spin = dict(rotation=True, tangential="history", mu=s.mu, mu_r=s.mu_r, kt=s.kt, kd_t=s.kd_t, kr=s.kr)
@@ -163,7 +165,7 @@ def ours_pile(s: PileState, settle_time: float) -> Repose:
     w.angular_velocities = s.w
     held = np.arange(len(s.x)) >= s.n
     fill = ReposeFill(w, s.n, s.mu, s.mu_r, held, s.z0, s.R, s.half, s.wall_t, s.contact)
-    return repose_lift(fill, s.lift, settle_time, tick, "grains")
+    return repose_lift(fill, s.lift, settle_time, tick, "grains"), w.stepping
 
 
 def lammps_pile(s: PileState, settle_time: float, lmp=None, k_roll: float | None = None) -> tuple:
@@ -223,9 +225,9 @@ def lammps_repose(seed: int, mu: float | None = None, mu_r: float | None = None,
     mu = float(cfg["mu"] if mu is None else mu)
     mu_r = float(cfg["mu_r"] if mu_r is None else mu_r)
     s = lammps_pile_fill(seed, mu, mu_r)
-    ours = ours_pile(s, float(cfg["settle_time"]))
+    ours, stepping = ours_pile(s, float(cfg["settle_time"]))
     radii = s.radii[: s.n]
-    out = dict(seed=seed, mu=mu, mu_r=mu_r, n=s.n, base=len(s.x) - s.n, dt=s.dt)
+    out = dict(seed=seed, mu=mu, mu_r=mu_r, n=s.n, base=len(s.x) - s.n, dt=s.dt, stepping=stepping)
     out.update(angle=ours.angle, height=ours.height, profile=ours.profile, seconds=ours.seconds, x=ours.x)
     for tag, k_roll in (("lammps", None), ("lammps_soft", s.kt / 10.0))[: 2 if soft else 1]:
         x, seconds, version = lammps_pile(s, float(cfg["settle_time"]), lmp, k_roll)
@@ -258,7 +260,8 @@ def case_lammps_repose(out: str) -> dict:
     _write_csv(
         os.path.join(out, "granular_lammps_repose.csv"),
         ["seed", "mu", "mu_r", "n", "base_grains", "dt", "angle_ours", "angle_lammps", "angle_lammps_soft_roll"]
-        + ["height_ours", "height_lammps", "seconds_ours", "seconds_lammps", "zhou2002_deg_d10mm", "zhou2002_deg_d1mm"],
+        + ["height_ours", "height_lammps", "seconds_ours", "seconds_lammps", "zhou2002_deg_d10mm", "zhou2002_deg_d1mm"]
+        + ["stepping_ours"],
         [
             (r["seed"], r["mu"], r["mu_r"], r["n"], r["base"], r["dt"], r["angle"], r["angle_lammps"])
             + (r.get("angle_lammps_soft", float("nan")), r["height"], r["height_lammps"], r["seconds"])
@@ -266,6 +269,7 @@ def case_lammps_repose(out: str) -> dict:
                 r["seconds_lammps"],
                 zhou_2002_model_a(r["mu"], r["mu_r"], 10.0),
                 zhou_2002_model_a(r["mu"], r["mu_r"], 1.0),
+                r["stepping"],
             )
             for r in runs
         ],
@@ -292,6 +296,7 @@ def case_lammps_repose(out: str) -> dict:
         round(float(np.mean([r["seconds_lammps"] for r in runs]))),
     )
     summary["lammps_repose version"] = runs[0]["version"]
+    summary["lammps_repose our stepping path"] = sorted({r["stepping"] for r in runs})
     return summary
 
 
