@@ -69,10 +69,12 @@ class HeldOutEval(BaseCallback):
         on_eval: Callable[[dict[str, Any]], None] | None = None,
         stop_at: float | None = None,
         log: Callable[[str], None] | None = None,
+        action_repeat: int = 1,
     ) -> None:
         super().__init__(verbose=0)
         self.venv, self.seed, self.vecnorm, self.every, self.clock = venv, seed, vecnorm, every, clock
         self.curve, self.on_eval, self.stop_at, self.log = curve, on_eval, stop_at, log
+        self.action_repeat = action_repeat  # (the policy decides every this many env steps)
         self.next_at = every
         self.eval_time = 0.0  # every evaluation's time
         self.eval_in_rollout = 0.0  # of which during the rollouts (not the one after the last)
@@ -82,7 +84,8 @@ class HeldOutEval(BaseCallback):
         self.clock.pause()
         t = time.perf_counter()
         self.venv.seed(self.seed)
-        res = C.run_episodes(self.venv, C.model_policy(self.model, self.vecnorm), self.venv.num_envs)
+        policy = C.model_policy(self.model, self.vecnorm)
+        res = C.run_episodes(self.venv, policy, self.venv.num_envs, self.action_repeat)
         self.eval_time += time.perf_counter() - t
         point = {
             "timesteps": int(self.num_timesteps),

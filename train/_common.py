@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from stable_baselines3.common.vec_env import VecEnvWrapper
 
 # Held-out seeds: training worlds use seed + i (i < n_envs); evaluation during training uses
 # EVAL_SEED_OFFSET + seed + i; the final report uses FINAL_SEED_OFFSET + seed + i. The ranges are
@@ -38,9 +39,12 @@ def make_env(
     env_kwargs: dict[str, Any],
     render_mode: str | None = None,
     stagger: bool = False,
+    action_repeat: int = 1,
 ):
     """Our batched SB3 VecEnv (one Numba call steps all worlds), wrapped in VecMonitor;
-    ``stagger``: the worlds' first episodes out of phase (``PenaltyBallsVecEnv.stagger``)."""
+    ``stagger``: the worlds' first episodes out of phase (``PenaltyBallsVecEnv.stagger``);
+    ``action_repeat`` > 1: in :class:`ActionRepeat` (the training's worlds; evaluations step every
+    env step, :func:`run_episodes`)."""
     from penalty_env.sb3 import make_vec_env
 
     kwargs = dict(env_kwargs)
@@ -49,7 +53,7 @@ def make_env(
     venv = make_vec_env(env_id=env_id, n_envs=n_envs, seed=seed, **kwargs)
     if stagger:
         venv.venv.stagger(seed)
-    return venv
+    return ActionRepeat(venv, action_repeat) if action_repeat > 1 else venv
 
 
 def episodes_per_world(n_episodes: int, n_envs: int) -> list[int]:
@@ -84,10 +88,14 @@ def describe_episodes(n_episodes: int, n_envs: int, seed: int) -> str:
     return text
 
 
-def run_episodes(venv, act: Callable[[np.ndarray], np.ndarray], n_episodes: int) -> dict[str, Any]:
+def run_episodes(
+    venv, act: Callable[[np.ndarray], np.ndarray], n_episodes: int, action_repeat: int = 1
+) -> dict[str, Any]:
     """Run exactly ``n_episodes`` episodes, the same number in each world (as SB3's
     ``evaluate_policy`` does, so short successful episodes are not over-counted;
-    :func:`episodes_per_world`, :func:`describe_episodes`).
+    :func:`episodes_per_world`, :func:`describe_episodes`). ``action_repeat``: the policy's action is
+    taken at an episode's first step and every ``action_repeat`` steps after, each world on its own
+    clock, and held in between (as :class:`ActionRepeat` trains it).
 
     Returns the success rate, mean and std of the episode return, and the per-episode lists.
     """
@@ -97,9 +105,19 @@ def run_episodes(venv, act: Callable[[np.ndarray], np.ndarray], n_episodes: int)
     returns, successes = [], []
     running = np.zeros(n_envs)
     obs = venv.reset()
+    clock = np.zeros(n_envs, dtype=int)  # steps since each world's last decision
+    held = None
     while (done_counts < per_env).any():
         actions = act(obs)
+        if action_repeat > 1:
+            held = (
+                actions
+                if held is None
+                else np.where((clock == 0).reshape((-1,) + (1,) * (actions.ndim - 1)), actions, held)
+            )
+            actions = held
         obs, rewards, dones, infos = venv.step(actions)
+        clock = np.where(dones, 0, (clock + 1) % action_repeat)
         running += rewards
         for i in np.flatnonzero(dones):
             if done_counts[i] < per_env[i]:
@@ -117,6 +135,44 @@ def run_episodes(venv, act: Callable[[np.ndarray], np.ndarray], n_episodes: int)
     }
 
 
+class ActionRepeat(VecEnvWrapper):
+    """The agent decides every ``repeat`` env steps (frame skip): each action is held for
+    ``repeat`` steps of the VecEnv below and their rewards add up. A world whose episode ends
+    within a hold is reset there (SB3's VecEnv resets it) and steps its new episode with the held
+    action for the rest of the hold; those steps' rewards are added to its next decision's, so
+    each episode's rewards are counted once, in its own return. (A new episode shorter than the
+    rest of the hold would end unseen: the level task's cannot.)"""
+
+    def __init__(self, venv, repeat: int) -> None:
+        super().__init__(venv)
+        self.repeat = int(repeat)
+        self._carry = np.zeros(venv.num_envs)
+        self._actions: np.ndarray | None = None
+
+    def reset(self):
+        self._carry[:] = 0.0
+        return self.venv.reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self):
+        n = self.num_envs
+        reward, self._carry = self._carry, np.zeros(n)
+        done = np.zeros(n, dtype=bool)
+        infos: list[dict] = [{} for _ in range(n)]
+        obs = None
+        for _ in range(self.repeat):
+            self.venv.step_async(self._actions)
+            obs, r, d, info = self.venv.step_wait()
+            reward = reward + np.where(done, 0.0, r)
+            self._carry += np.where(done, r, 0.0)
+            for i in np.flatnonzero(~done):
+                infos[i] = info[i]
+            done |= d
+        return obs, reward, done, infos
+
+
 def random_policy(action_space, seed: int) -> Callable[[np.ndarray], np.ndarray]:
     rng = np.random.default_rng(seed)
     low, high = action_space.low, action_space.high
@@ -125,6 +181,17 @@ def random_policy(action_space, seed: int) -> Callable[[np.ndarray], np.ndarray]
         return rng.uniform(low, high, size=(len(obs),) + low.shape).astype(np.float32)
 
     return act
+
+
+def scripted_policy(venv) -> Callable[[np.ndarray], np.ndarray] | None:
+    """The task's scripted baseline for ``venv`` (:func:`make_env`'s): the sand-shaping task's
+    raster sweep (:class:`penalty_env.envs.scripted.RasterSweep`); None for a task without one."""
+    scene = getattr(venv.unwrapped, "scene", None)
+    if scene is None or not hasattr(scene, "blade_range"):
+        return None
+    from penalty_env.envs.scripted import RasterSweep
+
+    return RasterSweep(venv.unwrapped)
 
 
 def model_policy(model, vecnorm=None) -> Callable[[np.ndarray], np.ndarray]:
@@ -146,8 +213,10 @@ def record_gif(
     episodes: int = 2,
     fps: int = 20,
     max_frames: int = 400,
+    action_repeat: int = 1,
 ) -> int:
-    """Roll out ``act`` in a single rendered env and save the frames as a GIF (Pillow)."""
+    """Roll out ``act`` in a single rendered env and save the frames as a GIF (Pillow); the policy
+    decides every ``action_repeat`` steps (:func:`run_episodes`)."""
     import gymnasium as gym
     from PIL import Image
 
@@ -158,10 +227,12 @@ def record_gif(
     for ep in range(episodes):
         obs, _ = env.reset(seed=seed + ep)
         frames.append(env.render())
-        done = False
+        done, step = False, 0
         while not done and len(frames) < max_frames:
-            action = act(obs[None])[0]
+            if step % action_repeat == 0:
+                action = act(obs[None])[0]
             obs, _, terminated, truncated, _ = env.step(action)
+            step += 1
             frames.append(env.render())
             done = terminated or truncated
     env.close()

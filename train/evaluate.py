@@ -46,7 +46,8 @@ def main(argv=None) -> dict:
         vecnorm = VecNormalize.load(str(args.run / "vecnormalize.pkl"), venv)
         vecnorm.training = False
         vecnorm.norm_reward = False
-    trained = C.run_episodes(venv, C.model_policy(model, vecnorm), args.episodes)
+    repeat = int(summary.get("hyperparameters", {}).get("action_repeat", 1))
+    trained = C.run_episodes(venv, C.model_policy(model, vecnorm), args.episodes, repeat)
     probe = C.make_env(env_id, n_envs, args.seed, env_kwargs)
     rand = C.run_episodes(probe, C.random_policy(probe.action_space, args.seed), args.episodes)
     print(
@@ -55,7 +56,9 @@ def main(argv=None) -> dict:
         f"random policy on the same worlds: success {rand['success_rate']:.1%}, mean return {rand['mean_return']:.3f}"
     )
     if args.video:
-        C.record_gif(env_id, env_kwargs, C.model_policy(model, vecnorm), args.video, seed=args.seed)
+        C.record_gif(
+            env_id, env_kwargs, C.model_policy(model, vecnorm), args.video, seed=args.seed, action_repeat=repeat
+        )
         print(f"video: {args.video}")
     return {"trained": trained, "random": rand}
 

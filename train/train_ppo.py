@@ -7,6 +7,7 @@
     python train/train_ppo.py --env-id PenaltyBallsSand-v1   # sand, from scratch: a curriculum inside
     python train/train_ppo.py --env-id PenaltyBalls2D-v0 --env-kwarg n_obstacles=2
     python train/train_ppo.py --env-id PenaltyBalls2D-v0 --obs-mode rgb   # from pixels (CnnPolicy)
+    python train/train_ppo.py --env-id PenaltySandLevel2D-v0 --env-kwarg target='"random"'  # sand shaping
 
 Each id trains with its own tuned settings (``train/_tuned.py``; docs/training.md says how they
 were chosen); any flag overrides them. The worlds are stepped by our native SB3 VecEnv (one Numba
@@ -27,7 +28,8 @@ receives:
                       time_split (env stepping, policy and rollout, update, evaluation),
                       env_steps_per_s, success_rate and mean_return (100 episodes on held-out
                       seeds), random_success_rate and random_mean_return (a random policy on the
-                      same seeds), the settings, and a sand run's ``curriculum`` stage
+                      same seeds; the level task's raster sweep too, scripted_*), the settings,
+                      and a sand run's ``curriculum`` stage
   stage1-<id>/        a sand run's first stage, a run folder of its own
 
 ``train(settings, out)`` is the run itself, importable: this CLI and the Ray Tune sweep
@@ -90,6 +92,8 @@ HYPERPARAMETERS = (
     "ent_coef",
     "clip_range",
     "log_std_init",
+    "sde_sample_freq",
+    "action_repeat",
     "net_arch",
 )
 # integer settings and their lower bound
@@ -103,6 +107,8 @@ _INTS = {
     "eval_episodes": 1,
     "final_episodes": 1,
     "seed": 0,
+    "sde_sample_freq": -1,
+    "action_repeat": 1,
 }
 # float settings: (low, high, low included, high included)
 _FLOATS = {
@@ -227,6 +233,18 @@ _TUNABLE = (
     ("ent_coef", float, "entropy bonus"),
     ("clip_range", float, "PPO clip"),
     ("log_std_init", float, "initial log standard deviation of the actions (--init-from copies the earlier run's)"),
+    (
+        "sde_sample_freq",
+        int,
+        "exploration noise: 0 a new Gaussian draw every step; else generalised state-dependent exploration "
+        "(gSDE), its noise drawn anew every this many steps, -1 once per rollout",
+    ),
+    (
+        "action_repeat",
+        int,
+        "the policy decides every this many env steps and holds its action in between (frame skip; "
+        "timesteps, n_steps and eval_freq then count decisions)",
+    ),
     ("net_arch", str, "hidden layer sizes, comma separated"),
     ("eval_freq", int, "env steps between held-out evaluations"),
     (
@@ -237,6 +255,16 @@ _TUNABLE = (
         "idle machine equals 2; torch's thread count changes the numbers (docs/training.md)",
     ),
 )
+
+
+def _stop_rate(text: str) -> float | str:
+    """``--stop-at``'s value: a success rate, or ``"never"``."""
+    if text.strip().lower() == "never":
+        return "never"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a success rate in (0, 1] or 'never', got {text!r}") from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -294,10 +322,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar and no evaluation lines")
     p.add_argument(
         "--stop-at",
-        type=float,
+        type=_stop_rate,
         default=None,
         metavar="RATE",
-        help="stop at the first evaluation whose success rate is at least RATE (e.g. 0.9)",
+        help="stop at the first evaluation whose success rate is at least RATE (e.g. 0.9), or 'never' (default: "
+        "the id's tuned value: 0.95 for the sand ids, else never)",
     )
     p.add_argument("--no-gif", action="store_true", help="skip the GIF of the trained policy")
     p.add_argument(
@@ -340,11 +369,12 @@ def settings_from_args(args: argparse.Namespace) -> dict[str, Any]:
         init_from=args.init_from,
         progress=not args.no_progress,
         quiet=args.quiet,
-        stop_at=args.stop_at,
         gif=not args.no_gif,
         curriculum=not args.no_curriculum,
         obs_mode=args.obs_mode,
     )
+    if args.stop_at is not None:
+        s["stop_at"] = None if args.stop_at == "never" else args.stop_at
     if args.no_stagger:
         s["stagger"] = False
     return s
@@ -444,7 +474,10 @@ def train(
     out.mkdir(parents=True, exist_ok=True)
     set_random_seed(seed)
 
-    venv = timed_env = TimedVecEnv(C.make_env(env_id, s["n_envs"], seed, env_kwargs, stagger=s["stagger"]))
+    repeat = s["action_repeat"]
+    venv = timed_env = TimedVecEnv(
+        C.make_env(env_id, s["n_envs"], seed, env_kwargs, stagger=s["stagger"], action_repeat=repeat)
+    )
     if s["normalize"]:
         venv = VecNormalize(venv, norm_reward=True, gamma=s["gamma"], **norm)
     vecnorm = venv if isinstance(venv, VecNormalize) else None
@@ -465,6 +498,7 @@ def train(
         on_eval=on_eval,
         stop_at=s["stop_at"],
         log=None if (bar or s["quiet"]) else lambda line: print(line, flush=True),
+        action_repeat=repeat,
     )
     hidden = [int(h) for h in s["net_arch"].split(",") if h.strip()]
     lr0 = s["learning_rate"]
@@ -481,6 +515,8 @@ def train(
             ent_coef=s["ent_coef"],
             clip_range=s["clip_range"],
             policy_kwargs=dict(net_arch=dict(pi=hidden, vf=hidden), log_std_init=s["log_std_init"]),
+            use_sde=s["sde_sample_freq"] != 0,
+            sde_sample_freq=s["sde_sample_freq"],
             tensorboard_log=str(s["tensorboard"]) if s["tensorboard"] else None,
             seed=seed,
             device="cpu",
@@ -520,9 +556,13 @@ def train(
         C.make_env(env_id, n_eval_envs, final_seed, env_kwargs),
         C.model_policy(model, vecnorm),
         s["final_episodes"],
+        repeat,
     )
     probe = C.make_env(env_id, n_eval_envs, final_seed, env_kwargs)
     rand = C.run_episodes(probe, C.random_policy(probe.action_space, final_seed), s["final_episodes"])
+    probe = C.make_env(env_id, n_eval_envs, final_seed, env_kwargs)
+    sweep = C.scripted_policy(probe)  # (the level task's raster sweep, on the same episodes)
+    scripted = C.run_episodes(probe, sweep, s["final_episodes"]) if sweep is not None else None
 
     summary = {
         "env_id": env_id,
@@ -530,10 +570,11 @@ def train(
         "obs_mode": s["obs_mode"],
         "seed": seed,
         "timesteps": int(model.num_timesteps),
+        "env_steps": int(model.num_timesteps) * repeat,  # (timesteps count decisions)
         "wall_time_s": round(wall, 2),
         "train_time_s": round(train_time, 2),
         "time_split": time_split,
-        "env_steps_per_s": round(model.num_timesteps / train_time, 1),
+        "env_steps_per_s": round(model.num_timesteps * repeat / train_time, 1),
         "success_rate": trained["success_rate"],
         "mean_return": trained["mean_return"],
         "std_return": trained["std_return"],
@@ -541,6 +582,11 @@ def train(
         "eval_seeds": f"{final_seed}..{final_seed + n_eval_envs - 1} (held out; training used {seed}..{seed + s['n_envs'] - 1})",
         "random_success_rate": rand["success_rate"],
         "random_mean_return": rand["mean_return"],
+        **(
+            {"scripted_success_rate": scripted["success_rate"], "scripted_mean_return": scripted["mean_return"]}
+            if scripted is not None
+            else {}
+        ),
         "hyperparameters": {k: s[k] for k in HYPERPARAMETERS},
         "normalize": s["normalize"],
         "stagger": s["stagger"],
@@ -561,7 +607,14 @@ def train(
         w.writerows(curve)
     plot_curve(curve, summary, out / "learning_curve.png")
     if s["gif"] and not isinstance(s["obs_mode"], tuple):  # (record_gif feeds one array observation)
-        C.record_gif(env_id, env_kwargs, C.model_policy(model, vecnorm), out / "policy.gif", seed=final_seed)
+        C.record_gif(
+            env_id,
+            env_kwargs,
+            C.model_policy(model, vecnorm),
+            out / "policy.gif",
+            seed=final_seed,
+            action_repeat=repeat,
+        )
 
     print(
         f"done in {train_time:.1f} s of training ({summary['env_steps_per_s']:,.0f} env-steps/s; "
@@ -569,6 +622,11 @@ def train(
         f"(random policy {rand['success_rate']:.0%}) over {trained['episodes']} held-out episodes, "
         f"mean return {trained['mean_return']:.2f} (random {rand['mean_return']:.2f}); results in {out}"
     )
+    if scripted is not None:
+        print(
+            f"the scripted baseline on the same episodes: success {scripted['success_rate']:.0%}, "
+            f"mean return {scripted['mean_return']:.2f}"
+        )
     return summary
 
 

@@ -29,7 +29,9 @@ def test_zoo_file_is_the_tuned_table():
     assert set(entries) == registered
     for env_id, entry in entries.items():
         s = _tuned.TUNED[env_id]
-        assert entry["n_envs"] == s["n_envs"] and entry["n_steps"] == s["n_steps"]
+        repeat = s["action_repeat"]  # (train_ppo.py counts decisions, rl-zoo3 env steps)
+        assert entry["n_envs"] == s["n_envs"] and entry["n_steps"] == s["n_steps"] * repeat
+        assert entry["n_timesteps"] == s["timesteps"] * repeat
         assert entry["learning_rate"] == f"lin_{s['learning_rate']!r}"
         assert entry["batch_size"] <= entry["n_envs"] * entry["n_steps"]  # SB3 needs a full minibatch
 
