@@ -108,13 +108,13 @@ def run_episodes(
     clock = np.zeros(n_envs, dtype=int)  # steps since each world's last decision
     held = None
     while (done_counts < per_env).any():
-        actions = act(obs)
+        if action_repeat == 1:
+            actions = act(obs)
+        elif held is None or (clock == 0).any():  # (the policy runs only when some world decides)
+            fresh = act(obs)
+            decide = (clock == 0).reshape((-1,) + (1,) * (fresh.ndim - 1))
+            held = fresh if held is None else np.where(decide, fresh, held)
         if action_repeat > 1:
-            held = (
-                actions
-                if held is None
-                else np.where((clock == 0).reshape((-1,) + (1,) * (actions.ndim - 1)), actions, held)
-            )
             actions = held
         obs, rewards, dones, infos = venv.step(actions)
         clock = np.where(dones, 0, (clock + 1) % action_repeat)

@@ -560,9 +560,11 @@ def train(
     )
     probe = C.make_env(env_id, n_eval_envs, final_seed, env_kwargs)
     rand = C.run_episodes(probe, C.random_policy(probe.action_space, final_seed), s["final_episodes"])
-    probe = C.make_env(env_id, n_eval_envs, final_seed, env_kwargs)
-    sweep = C.scripted_policy(probe)  # (the level task's raster sweep, on the same episodes)
-    scripted = C.run_episodes(probe, sweep, s["final_episodes"]) if sweep is not None else None
+    sweep = C.scripted_policy(probe)  # (the level task's raster sweep)
+    scripted = None
+    if sweep is not None:
+        probe.seed(final_seed)  # (the same episodes again, on the same worlds)
+        scripted = C.run_episodes(probe, sweep, s["final_episodes"])
 
     summary = {
         "env_id": env_id,
