@@ -97,12 +97,15 @@ def run_episodes(
     taken at an episode's first step and every ``action_repeat`` steps after, each world on its own
     clock, and held in between (as :class:`ActionRepeat` trains it).
 
-    Returns the success rate, mean and std of the episode return, and the per-episode lists.
+    Returns the success rate, mean and std of the episode return, and the per-episode lists (in
+    the order the episodes ended); ``keys`` names each episode ``(world, k)``, its world's k-th,
+    which is the same episode for any policy (a world draws from its generator only at a reset), so
+    two policies' returns pair up key by key (:func:`paired_difference`).
     """
     n_envs = venv.num_envs
     per_env = np.array(episodes_per_world(n_episodes, n_envs))
     done_counts = np.zeros(n_envs, dtype=int)
-    returns, successes = [], []
+    returns, successes, keys = [], [], []
     running = np.zeros(n_envs)
     obs = venv.reset()
     clock = np.zeros(n_envs, dtype=int)  # steps since each world's last decision
@@ -123,6 +126,7 @@ def run_episodes(
             if done_counts[i] < per_env[i]:
                 returns.append(float(running[i]))
                 successes.append(bool(infos[i].get("is_success", False)))
+                keys.append((int(i), int(done_counts[i])))
                 done_counts[i] += 1
             running[i] = 0.0
     return {
@@ -132,7 +136,19 @@ def run_episodes(
         "episodes": len(returns),
         "returns": returns,
         "successes": successes,
+        "keys": keys,
     }
+
+
+def paired_difference(a: dict[str, Any], b: dict[str, Any]) -> tuple[float, float, int]:
+    """The mean of ``a``'s return minus ``b``'s over the episodes both played (two
+    :func:`run_episodes` results on the same worlds and seeds, paired by ``keys``), its standard
+    error, and the number of pairs."""
+    rb = dict(zip(map(tuple, b["keys"]), b["returns"]))
+    d = np.array([r - rb[tuple(k)] for k, r in zip(a["keys"], a["returns"]) if tuple(k) in rb])
+    if len(d) < 2:
+        raise ValueError(f"paired_difference needs at least 2 episodes played by both, got {len(d)}")
+    return float(d.mean()), float(d.std(ddof=1) / np.sqrt(len(d))), len(d)
 
 
 class ActionRepeat(VecEnvWrapper):
@@ -236,7 +252,12 @@ def record_gif(
             frames.append(env.render())
             done = terminated or truncated
     env.close()
-    images = [Image.fromarray(f) for f in frames[:: max(1, math.ceil(len(frames) / max_frames))]]
+    # each frame to its own 256 colours with the fast octree (Pillow's default, median cut, took
+    # 70% of a sand GIF's 12 s; this is about 4x faster and looks the same)
+    images = [
+        Image.fromarray(f).quantize(256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+        for f in frames[:: max(1, math.ceil(len(frames) / max_frames))]
+    ]
     path.parent.mkdir(parents=True, exist_ok=True)
     images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0, optimize=True)
     return len(images)

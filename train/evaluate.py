@@ -5,7 +5,9 @@
     python train/evaluate.py RUN --episodes 200 --seed 3000000 --video runs/eval.gif
 
 Prints the success rate and the mean return of the trained policy and of a random policy on the
-same seeds, and what was played: ``--n-envs`` worlds (20) seeded ``--seed`` + i, each playing its
+same seeds (and, for a task with a scripted controller, the level task's raster sweep, with the
+trained policy's mean lead over it per episode, paired, and its standard error), and what was
+played: ``--n-envs`` worlds (20) seeded ``--seed`` + i, each playing its
 share of ``--episodes`` (100: 5 each) one after another, a world's later episodes continuing its
 generator; ``--video`` renders a GIF of the trained policy.
 """
@@ -50,17 +52,29 @@ def main(argv=None) -> dict:
     trained = C.run_episodes(venv, C.model_policy(model, vecnorm), args.episodes, repeat)
     probe = C.make_env(env_id, n_envs, args.seed, env_kwargs)
     rand = C.run_episodes(probe, C.random_policy(probe.action_space, args.seed), args.episodes)
+    sweep = C.scripted_policy(probe)
+    scripted = None
+    if sweep is not None:
+        probe.seed(args.seed)
+        scripted = C.run_episodes(probe, sweep, args.episodes)
     print(
         f"{env_id}: success {trained['success_rate']:.1%}, mean return {trained['mean_return']:.3f} "
         f"± {trained['std_return']:.3f} over {C.describe_episodes(trained['episodes'], n_envs, args.seed)}; "
         f"random policy on the same worlds: success {rand['success_rate']:.1%}, mean return {rand['mean_return']:.3f}"
     )
+    if scripted is not None:
+        lead, se, n = C.paired_difference(trained, scripted)
+        print(
+            f"the scripted baseline on the same episodes: success {scripted['success_rate']:.1%}, mean return "
+            f"{scripted['mean_return']:.3f}; trained minus scripted, per episode: {lead:+.3f} ± {se:.3f} "
+            f"(one standard error, {n} pairs)"
+        )
     if args.video:
         C.record_gif(
             env_id, env_kwargs, C.model_policy(model, vecnorm), args.video, seed=args.seed, action_repeat=repeat
         )
         print(f"video: {args.video}")
-    return {"trained": trained, "random": rand}
+    return {"trained": trained, "random": rand, **({"scripted": scripted} if scripted is not None else {})}
 
 
 if __name__ == "__main__":

@@ -94,6 +94,7 @@ HYPERPARAMETERS = (
     "log_std_init",
     "sde_sample_freq",
     "action_repeat",
+    "imitate",
     "net_arch",
 )
 # integer settings and their lower bound
@@ -109,6 +110,7 @@ _INTS = {
     "seed": 0,
     "sde_sample_freq": -1,
     "action_repeat": 1,
+    "imitate": 0,
 }
 # float settings: (low, high, low included, high included)
 _FLOATS = {
@@ -204,6 +206,11 @@ def check_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
         raise ValueError("set the observation mode with the setting 'obs_mode' (--obs-mode), not in env_kwargs")
     if s["obs_mode"] != "state" and s["init_from"] is not None:
         raise ValueError(f"setting 'init_from' needs obs_mode 'state', got obs_mode {s['obs_mode']!r}")
+    if s["imitate"] and (s["obs_mode"] != "state" or not s["env_id"].split(":")[-1].startswith("PenaltySandLevel")):
+        raise ValueError(
+            f"setting 'imitate' ({s['imitate']}) needs a PenaltySandLevel id observing its state (the raster sweep "
+            f"reads it), got env_id {s['env_id']!r} with obs_mode {s['obs_mode']!r}; use 0"
+        )
     return s
 
 
@@ -244,6 +251,13 @@ _TUNABLE = (
         int,
         "the policy decides every this many env steps and holds its action in between (frame skip; "
         "timesteps, n_steps and eval_freq then count decisions)",
+    ),
+    (
+        "imitate",
+        int,
+        "a warm start: this many decisions of the task's scripted controller (the level task's raster sweep) on "
+        "the training worlds, the policy fitted to its actions and the value to its returns before PPO "
+        "(train/_imitate.py); 0: none",
     ),
     ("net_arch", str, "hidden layer sizes, comma separated"),
     ("eval_freq", int, "env steps between held-out evaluations"),
@@ -535,6 +549,24 @@ def train(
     if bar:
         callbacks.append(Progress(s["timesteps"], curve, desc=env_id))
     clock.start()
+    imitation = None
+    if s["imitate"]:
+        from _imitate import imitate
+
+        torch_threads.before_update()
+        imitation = imitate(model, venv, vecnorm, C.scripted_policy(venv), s["imitate"])
+        imitation["train_time_s"] = round(clock.train_time(), 2)
+        imitation["env_step_s"] = round(timed_env.time, 2)
+        timed_env.time = 0.0  # (the time split below is PPO's)
+        if not s["quiet"]:
+            print(
+                f"[imitate] {imitation['decisions']:,} decisions of the scripted controller (mean return "
+                f"{imitation['teacher_mean_return']:.2f} over {imitation['episodes']} episodes), "
+                f"action MSE {imitation['action_mse']}, in {imitation['train_time_s']} s",
+                flush=True,
+            )
+        held_out.init_callback(model)  # (PPO's starting point: the curve's point at 0 steps)
+        held_out.evaluate()
     model.learn(total_timesteps=s["timesteps"], callback=callbacks)
     wall, train_time = clock.wall_time(), clock.train_time()
     env_time = timed_env.time
@@ -543,6 +575,7 @@ def train(
         "policy_and_rollout_s": round(model.rollout_time - env_time - held_out.eval_in_rollout, 2),
         "update_s": round(model.update_time, 2),
         "evaluation_s": round(held_out.eval_time, 2),
+        **({"imitation_s": imitation["train_time_s"]} if imitation is not None else {}),
     }
 
     model.save(out / "model.zip")
@@ -593,6 +626,7 @@ def train(
         "normalize": s["normalize"],
         "stagger": s["stagger"],
         "init_from": s["init_from"],
+        **({"imitation": imitation} if imitation is not None else {}),
         "threads": {**torch_threads.record(), **threads},
         "curve": curve,
     }

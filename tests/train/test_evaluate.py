@@ -72,3 +72,43 @@ def test_the_default_report_says_20_worlds_play_5_episodes_each():
 def test_more_worlds_than_episodes_is_refused():
     with pytest.raises(ValueError, match="n_envs must be between 1 and n_episodes=5, got 6"):
         C.describe_episodes(5, 6, 0)
+
+
+def test_two_policies_play_the_same_episodes_key_by_key_and_their_lead_pairs_up():
+    """A world's k-th episode starts from the same state whatever the policy played before it (the
+    level task: heap and target drawn at reset), so ``run_episodes``' keys pair two policies'
+    returns; ``paired_difference`` is the mean and standard error of the per-episode lead."""
+    from stable_baselines3.common.vec_env import VecEnvWrapper
+
+    class Starts(VecEnvWrapper):
+        """Records each episode's first observation under its key (world, k)."""
+
+        def reset(self):
+            obs = self.venv.reset()
+            self.count = np.zeros(self.num_envs, int)
+            self.starts = {(i, 0): obs[i].copy() for i in range(self.num_envs)}
+            return obs
+
+        def step_wait(self):
+            obs, r, done, infos = self.venv.step_wait()
+            for i in np.flatnonzero(done):
+                self.count[i] += 1
+                self.starts[(int(i), int(self.count[i]))] = obs[i].copy()
+            return obs, r, done, infos
+
+    kw = {"target": "random"}
+    played = []
+    for make_policy in (lambda v: C.scripted_policy(v), lambda v: C.random_policy(v.action_space, 1)):
+        venv = Starts(C.make_env("PenaltySandLevel2D-v0", 3, 77, kw))
+        played.append((C.run_episodes(venv, make_policy(venv), 7), venv.starts))
+    (sweep, s_starts), (rand, r_starts) = played
+    assert sorted(sweep["keys"]) == sorted(rand["keys"]) and len(sweep["keys"]) == 7
+    for key in sweep["keys"]:
+        assert np.array_equal(s_starts[key], r_starts[key]), key
+    lead, se, n = C.paired_difference(sweep, rand)
+    by_key = dict(zip(rand["keys"], rand["returns"]))
+    d = [r - by_key[k] for k, r in zip(sweep["keys"], sweep["returns"])]
+    assert n == 7 and lead == pytest.approx(np.mean(d)) and se == pytest.approx(np.std(d, ddof=1) / np.sqrt(7))
+    assert lead > 0  # (the sweep levels; a random blade barely does)
+    with pytest.raises(ValueError, match="at least 2 episodes played by both, got 0"):
+        C.paired_difference(sweep, {"keys": [], "returns": []})

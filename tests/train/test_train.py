@@ -501,3 +501,65 @@ def test_action_repeat_holds_each_decision_and_counts_every_reward():
     for t in range(1, first_end + 1):  # (until an episode ends, both worlds decide on one clock)
         same = np.all(acts[t] == acts[t - 1], axis=1)
         assert same.all() if t % k else not same.any(), t
+
+
+def test_imitation_copies_the_raster_sweep_and_is_refused_without_one():
+    """``imitate`` fits the policy's mean action to the level task's raster sweep on the training
+    worlds (the run's VecNormalize seeing the demonstration): afterwards the deterministic policy
+    acts as the sweep does on observations of other episodes; an id without a sweep, or a setting below 0, is refused naming the setting."""
+    T = _train_module()
+    import _common as C
+    from _imitate import imitate
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    kw = {"target": "random"}
+    venv = VecNormalize(C.make_env("PenaltySandLevel2D-v0", 16, 3, kw, action_repeat=10), gamma=0.99)
+    model = PPO(
+        "MlpPolicy", venv, n_steps=16, batch_size=64, seed=0, device="cpu", policy_kwargs=dict(net_arch=[32, 32])
+    )
+    sweep = C.scripted_policy(venv)
+    probe = C.make_env("PenaltySandLevel2D-v0", 16, 900, kw)
+    obs = probe.reset()
+    before = np.mean((model.predict(venv.normalize_obs(obs), deterministic=True)[0] - sweep(obs)) ** 2)
+    fit = imitate(model, venv, venv, sweep, 1024, epochs=200)
+    assert fit["decisions"] == 1024 and fit["episodes"] > 16 and fit["teacher_mean_return"] > 1.0
+    sweep.reset()
+    after = np.mean((model.predict(venv.normalize_obs(obs), deterministic=True)[0] - sweep(obs)) ** 2)
+    assert after < 0.05 < before, (before, after)
+    with pytest.raises(ValueError, match=r"'imitate' \(100\) needs a PenaltySandLevel id.*PenaltyBalls-v0"):
+        T.check_settings({"imitate": 100})
+    with pytest.raises(ValueError, match=r"'imitate' must be an integer >= 0, got -1"):
+        T.check_settings({"env_id": "PenaltySandLevel2D-v0", "imitate": -1})
+
+
+def test_a_run_with_imitation_records_it_and_starts_its_curve_at_the_copy(tmp_path):
+    """``train`` with ``imitate``: the summary's ``imitation`` entry, the curve's first point at 0
+    PPO steps (the copy of the sweep, evaluated before PPO), and a time split whose parts stay
+    PPO's own (the demonstration's env time is under ``imitation_s``, not ``env_step_s``)."""
+    T = _train_module()
+    settings = dict(
+        env_id="PenaltySandLevel2D-v0",
+        env_kwargs={"target": "random"},
+        timesteps=256,
+        n_envs=16,
+        n_steps=16,
+        batch_size=128,
+        eval_freq=256,
+        imitate=512,
+        eval_episodes=4,
+        final_episodes=4,
+        gif=False,
+        quiet=True,
+        progress=False,
+        numba_threads=1,
+        threads=1,
+    )
+    summary = T.train(settings, tmp_path / "run")
+    fit = summary["imitation"]
+    assert fit["decisions"] == 512 and fit["episodes"] >= 16 and fit["action_mse"] < 1.0
+    assert summary["curve"][0]["timesteps"] == 0 and summary["curve"][-1]["timesteps"] == summary["timesteps"] >= 256
+    split = summary["time_split"]
+    assert split["imitation_s"] == fit["train_time_s"] > 0
+    assert split["policy_and_rollout_s"] >= 0 and 0 < split["env_step_s"] < summary["train_time_s"]
+    assert summary["hyperparameters"]["imitate"] == 512
