@@ -201,9 +201,11 @@ def random_policy(action_space, seed: int) -> Callable[[np.ndarray], np.ndarray]
 
 def scripted_policy(venv) -> Callable[[np.ndarray], np.ndarray] | None:
     """The task's scripted baseline for ``venv`` (:func:`make_env`'s): the sand-shaping task's
-    raster sweep (:class:`penalty_env.envs.scripted.RasterSweep`); None for a task without one."""
+    raster sweep (:class:`penalty_env.envs.scripted.RasterSweep`); None for a task without one, and
+    for a level env that does not observe its state vector (the sweep reads the blade from it)."""
     scene = getattr(venv.unwrapped, "scene", None)
-    if scene is None or not hasattr(scene, "blade_range"):
+    batch = getattr(venv.unwrapped, "batch", None)
+    if scene is None or not hasattr(scene, "blade_range") or batch is None or not batch.view.is_state:
         return None
     from penalty_env.envs.scripted import RasterSweep
 

@@ -63,12 +63,14 @@ def main(argv=None) -> dict:
         f"random policy on the same worlds: success {rand['success_rate']:.1%}, mean return {rand['mean_return']:.3f}"
     )
     if scripted is not None:
-        lead, se, n = C.paired_difference(trained, scripted)
-        print(
+        text = (
             f"the scripted baseline on the same episodes: success {scripted['success_rate']:.1%}, mean return "
-            f"{scripted['mean_return']:.3f}; trained minus scripted, per episode: {lead:+.3f} ± {se:.3f} "
-            f"(one standard error, {n} pairs)"
+            f"{scripted['mean_return']:.3f}"
         )
+        if args.episodes >= 2:
+            lead, se, n = C.paired_difference(trained, scripted)
+            text += f"; trained minus scripted, per episode: {lead:+.3f} ± {se:.3f} (one standard error, {n} pairs)"
+        print(text)
     if args.video:
         C.record_gif(
             env_id, env_kwargs, C.model_policy(model, vecnorm), args.video, seed=args.seed, action_repeat=repeat

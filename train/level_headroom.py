@@ -7,9 +7,10 @@ many open-loop action sequences, chosen in hindsight.
 Each held-out episode (seeds 4,000,000 + k, random targets) is played by ``--sequences`` worlds at
 once, every world from the same start, each with its own sequence of actions held for
 ``--hold`` steps: every "one way, back, the first way again" sequence at full speed (the turns
-at any decision), then random ones (each decision one of -1, -0.5, 0, 0.5, 1). The best return
-among them is what some policy could have scored on that episode, had it known which to play: a
-lower bound on the best achievable return, and an upper bound on nothing. The raster sweep and,
+at any decision; 212 distinct for 15 decisions), then random ones (each decision one of -1,
+-0.5, 0, 0.5, 1), all distinct. The best return among them is what some policy could have scored
+on that episode, had it known which to play: a lower bound on the best achievable return, and an
+upper bound on nothing. The raster sweep and,
 with ``--run``, a trained policy play the same episodes. Prints the means and the paired
 differences with their standard errors. 2D only: each x action is one number.
 """
@@ -35,18 +36,25 @@ SEED = 4_000_000
 
 
 def sequences(n: int, decisions: int, seed: int = 0) -> tuple[np.ndarray, int]:
-    """``n`` action sequences of ``decisions`` steps (at least the structured ones): first every
-    full-speed "a decisions one way, b back, the rest the first way again" in both directions,
-    then random ones. Returns them and how many are structured."""
-    out = [
-        [first] * a + [-first] * b + [first] * (decisions - a - b)
-        for first in (1.0, -1.0)
-        for a in range(decisions + 1)
-        for b in range(decisions + 1 - a)
-    ]
+    """``n`` distinct action sequences of ``decisions`` steps (at least the structured ones):
+    first every full-speed "a decisions one way, b back, the rest the first way again" in both
+    directions (each once: a run of 0 decisions makes some alike), then random ones. Returns them
+    and how many are structured."""
+    out: list[tuple[float, ...]] = []
+    for first in (1.0, -1.0):
+        for a in range(decisions + 1):
+            for b in range(decisions + 1 - a):
+                seq = (first,) * a + (-first,) * b + (first,) * (decisions - a - b)
+                if seq not in out:
+                    out.append(seq)
     structured = len(out)
     rng = np.random.default_rng(seed)
-    out += rng.choice([-1.0, -0.5, 0.0, 0.5, 1.0], size=(max(0, n - structured), decisions)).tolist()
+    seen = set(out)
+    while len(out) < n:
+        seq = tuple(float(v) for v in rng.choice([-1.0, -0.5, 0.0, 0.5, 1.0], size=decisions))
+        if seq not in seen:
+            seen.add(seq)
+            out.append(seq)
     return np.array(out, dtype=np.float32), structured
 
 

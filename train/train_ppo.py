@@ -29,7 +29,8 @@ receives:
                       env_steps_per_s, success_rate and mean_return (100 episodes on held-out
                       seeds), random_success_rate and random_mean_return (a random policy on the
                       same seeds; the level task's raster sweep too, scripted_*), the settings,
-                      and a sand run's ``curriculum`` stage
+                      a sand run's ``curriculum`` stage, and with ``--imitate`` the warm start's
+                      figures (``imitation``; time_split's imitation_s)
   stage1-<id>/        a sand run's first stage, a run folder of its own
 
 ``train(settings, out)`` is the run itself, importable: this CLI and the Ray Tune sweep
@@ -556,6 +557,7 @@ def train(
         torch_threads.before_update()
         imitation = imitate(model, venv, vecnorm, C.scripted_policy(venv), s["imitate"])
         imitation["train_time_s"] = round(clock.train_time(), 2)
+        imitation["env_steps"] = imitation["decisions"] * repeat  # (not in the summary's env_steps: PPO's)
         imitation["env_step_s"] = round(timed_env.time, 2)
         timed_env.time = 0.0  # (the time split below is PPO's)
         if not s["quiet"]:
@@ -567,7 +569,8 @@ def train(
             )
         held_out.init_callback(model)  # (PPO's starting point: the curve's point at 0 steps)
         held_out.evaluate()
-    model.learn(total_timesteps=s["timesteps"], callback=callbacks)
+    if not held_out.reached:  # (a copy already at stop_at needs no PPO)
+        model.learn(total_timesteps=s["timesteps"], callback=callbacks)
     wall, train_time = clock.wall_time(), clock.train_time()
     env_time = timed_env.time
     time_split = {

@@ -112,3 +112,12 @@ def test_two_policies_play_the_same_episodes_key_by_key_and_their_lead_pairs_up(
     assert lead > 0  # (the sweep levels; a random blade barely does)
     with pytest.raises(ValueError, match="at least 2 episodes played by both, got 0"):
         C.paired_difference(sweep, {"keys": [], "returns": []})
+
+
+def test_the_sweep_is_offered_only_where_it_can_read_the_state():
+    """The raster sweep reads the blade from the level task's state vector: a level env observing
+    its height map or pixels gets no scripted baseline (rather than an IndexError later), nor does
+    a task without a sweep."""
+    assert C.scripted_policy(C.make_env("PenaltySandLevel2D-v0", 2, 0, {})) is not None
+    assert C.scripted_policy(C.make_env("PenaltySandLevel2D-v0", 2, 0, {"obs_mode": "heightmap"})) is None
+    assert C.scripted_policy(C.make_env("PenaltyBalls2D-v0", 2, 0, {})) is None

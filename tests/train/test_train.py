@@ -519,14 +519,28 @@ def test_imitation_copies_the_raster_sweep_and_is_refused_without_one():
         "MlpPolicy", venv, n_steps=16, batch_size=64, seed=0, device="cpu", policy_kwargs=dict(net_arch=[32, 32])
     )
     sweep = C.scripted_policy(venv)
+    # other episodes' observations along the sweep's own path (its turns included), and its actions
     probe = C.make_env("PenaltySandLevel2D-v0", 16, 900, kw)
+    other = C.scripted_policy(probe)
+    seen, wanted = [], []
     obs = probe.reset()
-    before = np.mean((model.predict(venv.normalize_obs(obs), deterministic=True)[0] - sweep(obs)) ** 2)
+    for _ in range(60):
+        act = other(obs)
+        seen.append(obs)
+        wanted.append(act)
+        obs = probe.step(act)[0]
+    seen_, wanted_ = np.concatenate(seen), np.concatenate(wanted)
+    assert (np.diff(np.stack(wanted)[:, :, 0], axis=0) != 0).any()  # (it turned within those steps)
+
+    def error() -> float:
+        return float(np.mean((model.predict(venv.normalize_obs(seen_), deterministic=True)[0] - wanted_) ** 2))
+
+    before = error()
     fit = imitate(model, venv, venv, sweep, 1024, epochs=200)
     assert fit["decisions"] == 1024 and fit["episodes"] > 16 and fit["teacher_mean_return"] > 1.0
-    sweep.reset()
-    after = np.mean((model.predict(venv.normalize_obs(obs), deterministic=True)[0] - sweep(obs)) ** 2)
+    after = error()
     assert after < 0.05 < before, (before, after)
+    assert fit["action_mse"] < 0.05 and np.isfinite(fit["value_mse"])
     with pytest.raises(ValueError, match=r"'imitate' \(100\) needs a PenaltySandLevel id.*PenaltyBalls-v0"):
         T.check_settings({"imitate": 100})
     with pytest.raises(ValueError, match=r"'imitate' must be an integer >= 0, got -1"):
@@ -560,6 +574,25 @@ def test_a_run_with_imitation_records_it_and_starts_its_curve_at_the_copy(tmp_pa
     assert fit["decisions"] == 512 and fit["episodes"] >= 16 and fit["action_mse"] < 1.0
     assert summary["curve"][0]["timesteps"] == 0 and summary["curve"][-1]["timesteps"] == summary["timesteps"] >= 256
     split = summary["time_split"]
-    assert split["imitation_s"] == fit["train_time_s"] > 0
+    assert split["imitation_s"] > 0 and fit["env_step_s"] > 0
+    assert fit["env_steps"] == 512 * summary["hyperparameters"]["action_repeat"] == 5120  # (the id holds 10)
     assert split["policy_and_rollout_s"] >= 0 and 0 < split["env_step_s"] < summary["train_time_s"]
     assert summary["hyperparameters"]["imitate"] == 512
+
+
+def test_imitation_fits_the_value_to_whole_returns_only():
+    """The value's targets: each step's discounted return within its episode, kept only for
+    episodes that terminated (one cut by the time limit, or by the demonstration's end, is left
+    out: PPO bootstraps those)."""
+    T = _train_module()  # (train/ on the path)
+    del T
+    from _imitate import _returns
+
+    r = np.array([[1.0, 1.0], [2.0, 1.0], [3.0, 1.0], [4.0, 1.0]])  # 4 steps, 2 worlds
+    done = np.array([[False, False], [True, True], [False, False], [False, True]])
+    cut = np.array([[False, False], [False, True], [False, False], [False, False]])
+    ret, whole = _returns(r, done, cut, 0.5)
+    assert ret[:, 0].tolist() == [1 + 0.5 * 2, 2, 3 + 0.5 * 4, 4]  # (world 0: an episode ends at step 1)
+    assert ret[:, 1].tolist() == [1.5, 1, 1.5, 1]
+    assert whole[:, 0].tolist() == [True, True, False, False]  # (steps 2-3: the demonstration ended first)
+    assert whole[:, 1].tolist() == [False, False, True, True]  # (steps 0-1: cut by the time limit)
