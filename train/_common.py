@@ -108,17 +108,13 @@ def run_episodes(
     returns, successes, keys = [], [], []
     running = np.zeros(n_envs)
     obs = venv.reset()
-    clock = np.zeros(n_envs, dtype=int)  # steps since each world's last decision
-    held = None
+    clock = np.zeros(n_envs, dtype=int)  # steps since each world's last decision (always 0 without a repeat)
+    actions = None
     while (done_counts < per_env).any():
-        if action_repeat == 1:
-            actions = act(obs)
-        elif held is None or (clock == 0).any():  # (the policy runs only when some world decides)
+        if actions is None or (clock == 0).any():  # (the policy runs only when some world decides)
             fresh = act(obs)
             decide = (clock == 0).reshape((-1,) + (1,) * (fresh.ndim - 1))
-            held = fresh if held is None else np.where(decide, fresh, held)
-        if action_repeat > 1:
-            actions = held
+            actions = fresh if actions is None or decide.all() else np.where(decide, fresh, actions)
         obs, rewards, dones, infos = venv.step(actions)
         clock = np.where(dones, 0, (clock + 1) % action_repeat)
         running += rewards
@@ -140,6 +136,14 @@ def run_episodes(
     }
 
 
+def mean_and_se(d: np.ndarray) -> tuple[float, float]:
+    """The mean of ``d`` and its standard error (at least 2 values)."""
+    d = np.asarray(d, dtype=float)
+    if len(d) < 2:
+        raise ValueError(f"a standard error needs at least 2 values, got {len(d)}")
+    return float(d.mean()), float(d.std(ddof=1) / np.sqrt(len(d)))
+
+
 def paired_difference(a: dict[str, Any], b: dict[str, Any]) -> tuple[float, float, int]:
     """The mean of ``a``'s return minus ``b``'s over the episodes both played (two
     :func:`run_episodes` results on the same worlds and seeds, paired by ``keys``), its standard
@@ -148,7 +152,7 @@ def paired_difference(a: dict[str, Any], b: dict[str, Any]) -> tuple[float, floa
     d = np.array([r - rb[tuple(k)] for k, r in zip(a["keys"], a["returns"]) if tuple(k) in rb])
     if len(d) < 2:
         raise ValueError(f"paired_difference needs at least 2 episodes played by both, got {len(d)}")
-    return float(d.mean()), float(d.std(ddof=1) / np.sqrt(len(d))), len(d)
+    return (*mean_and_se(d), len(d))
 
 
 class ActionRepeat(VecEnvWrapper):
@@ -201,15 +205,45 @@ def random_policy(action_space, seed: int) -> Callable[[np.ndarray], np.ndarray]
 
 def scripted_policy(venv) -> Callable[[np.ndarray], np.ndarray] | None:
     """The task's scripted baseline for ``venv`` (:func:`make_env`'s): the sand-shaping task's
-    raster sweep (:class:`penalty_env.envs.scripted.RasterSweep`); None for a task without one, and
-    for a level env that does not observe its state vector (the sweep reads the blade from it)."""
-    scene = getattr(venv.unwrapped, "scene", None)
-    batch = getattr(venv.unwrapped, "batch", None)
-    if scene is None or not hasattr(scene, "blade_range") or batch is None or not batch.view.is_state:
+    raster sweep (:func:`penalty_env.envs.scripted.scripted_policy`); None for a task without one,
+    and for a level env that does not observe its state vector (the sweep reads the blade from
+    it, and that function refuses such an env)."""
+    if not hasattr(getattr(venv.unwrapped, "scene", None), "blade_range"):
         return None
-    from penalty_env.envs.scripted import RasterSweep
+    from penalty_env.envs.scripted import scripted_policy as task_policy
 
-    return RasterSweep(venv.unwrapped)
+    try:
+        return task_policy(venv)
+    except ValueError:
+        return None
+
+
+def baselines(env_id: str, n_envs: int, seed: int, env_kwargs: dict[str, Any], n_episodes: int) -> dict[str, Any]:
+    """The reference policies on the episodes :func:`run_episodes` plays on ``n_envs`` worlds
+    seeded ``seed``: ``"random"`` (:func:`random_policy`), and for the level task ``"scripted"``
+    (:func:`scripted_policy`), both on one vector env, reseeded in between."""
+    probe = make_env(env_id, n_envs, seed, env_kwargs)
+    out = {"random": run_episodes(probe, random_policy(probe.action_space, seed), n_episodes)}
+    sweep = scripted_policy(probe)
+    if sweep is not None:
+        probe.seed(seed)  # (the same episodes again, on the same worlds)
+        out["scripted"] = run_episodes(probe, sweep, n_episodes)
+    return out
+
+
+def load_run(run: Path, venv) -> tuple[Callable[[np.ndarray], np.ndarray], int]:
+    """The deterministic policy of a ``train_ppo.py`` run folder for ``venv`` (its normalisation
+    statistics loaded, frozen), and the action repeat it was trained with."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    summary = json.loads((run / "summary.json").read_text())
+    model = PPO.load(run / "model.zip", device="cpu")
+    vecnorm = None
+    if (run / "vecnormalize.pkl").exists():
+        vecnorm = VecNormalize.load(str(run / "vecnormalize.pkl"), venv)
+        vecnorm.training, vecnorm.norm_reward = False, False
+    return model_policy(model, vecnorm), int(summary.get("hyperparameters", {}).get("action_repeat", 1))
 
 
 def model_policy(model, vecnorm=None) -> Callable[[np.ndarray], np.ndarray]:

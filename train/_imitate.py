@@ -75,18 +75,20 @@ def imitate(model, venv, vecnorm, teacher, decisions: int, epochs: int = 40, bat
     g = th.as_tensor(ret.reshape(-1), dtype=th.float32)
     keep = th.as_tensor(ended.reshape(-1))
     policy = model.policy
+
+    def heads(obs):  # the policy's mean action and value (SB3's forward, without the noise)
+        features = policy.extract_features(obs)
+        pi_f, vf_f = features if isinstance(features, tuple) else (features, features)
+        mean = policy.action_net(policy.mlp_extractor.forward_actor(pi_f))
+        return mean, policy.value_net(policy.mlp_extractor.forward_critic(vf_f)).squeeze(-1)
+
     opt = th.optim.Adam(policy.parameters(), lr=1e-3)
     gen = th.Generator().manual_seed(int(model.seed or 0))
     for _ in range(epochs):
         order = th.randperm(len(x), generator=gen)
         for k in range(0, len(x), batch):
             idx = order[k : k + batch]
-            features = policy.extract_features(x[idx])
-            pi_f, vf_f = features if isinstance(features, tuple) else (features, features)
-            latent_pi = policy.mlp_extractor.forward_actor(pi_f)
-            latent_vf = policy.mlp_extractor.forward_critic(vf_f)
-            mean = policy.action_net(latent_pi)
-            value = policy.value_net(latent_vf).squeeze(-1)
+            mean, value = heads(x[idx])
             pi_loss = ((mean - y[idx]) ** 2).mean()
             m = keep[idx]
             vf_loss = ((value - g[idx])[m] ** 2).mean() if bool(m.any()) else th.zeros(())
@@ -94,10 +96,8 @@ def imitate(model, venv, vecnorm, teacher, decisions: int, epochs: int = 40, bat
             (pi_loss + 0.5 * vf_loss).backward()
             opt.step()
     with th.no_grad():  # the fit's errors over the whole demonstration
-        features = policy.extract_features(x)
-        pi_f, vf_f = features if isinstance(features, tuple) else (features, features)
-        pi_err = float(((policy.action_net(policy.mlp_extractor.forward_actor(pi_f)) - y) ** 2).mean())
-        value = policy.value_net(policy.mlp_extractor.forward_critic(vf_f)).squeeze(-1)
+        mean, value = heads(x)
+        pi_err = float(((mean - y) ** 2).mean())
         vf_err = float(((value - g)[keep] ** 2).mean()) if bool(keep.any()) else float("nan")
     return {
         "decisions": int(obs.shape[0] * obs.shape[1]),

@@ -35,28 +35,14 @@ def main(argv=None) -> dict:
     p.add_argument("--video", type=Path, default=None, help="write a GIF of the policy here")
     args = p.parse_args(argv)
 
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import VecNormalize
-
     summary = json.loads((args.run / "summary.json").read_text())
     env_id, env_kwargs = summary["env_id"], summary.get("env_kwargs", {})
-    model = PPO.load(args.run / "model.zip", device="cpu")
     n_envs = min(args.n_envs, args.episodes)
     venv = C.make_env(env_id, n_envs, args.seed, env_kwargs)
-    vecnorm = None
-    if (args.run / "vecnormalize.pkl").exists():
-        vecnorm = VecNormalize.load(str(args.run / "vecnormalize.pkl"), venv)
-        vecnorm.training = False
-        vecnorm.norm_reward = False
-    repeat = int(summary.get("hyperparameters", {}).get("action_repeat", 1))
-    trained = C.run_episodes(venv, C.model_policy(model, vecnorm), args.episodes, repeat)
-    probe = C.make_env(env_id, n_envs, args.seed, env_kwargs)
-    rand = C.run_episodes(probe, C.random_policy(probe.action_space, args.seed), args.episodes)
-    sweep = C.scripted_policy(probe)
-    scripted = None
-    if sweep is not None:
-        probe.seed(args.seed)
-        scripted = C.run_episodes(probe, sweep, args.episodes)
+    policy, repeat = C.load_run(args.run, venv)
+    trained = C.run_episodes(venv, policy, args.episodes, repeat)
+    refs = C.baselines(env_id, n_envs, args.seed, env_kwargs, args.episodes)
+    rand, scripted = refs["random"], refs.get("scripted")
     print(
         f"{env_id}: success {trained['success_rate']:.1%}, mean return {trained['mean_return']:.3f} "
         f"± {trained['std_return']:.3f} over {C.describe_episodes(trained['episodes'], n_envs, args.seed)}; "
@@ -72,11 +58,9 @@ def main(argv=None) -> dict:
             text += f"; trained minus scripted, per episode: {lead:+.3f} ± {se:.3f} (one standard error, {n} pairs)"
         print(text)
     if args.video:
-        C.record_gif(
-            env_id, env_kwargs, C.model_policy(model, vecnorm), args.video, seed=args.seed, action_repeat=repeat
-        )
+        C.record_gif(env_id, env_kwargs, policy, args.video, seed=args.seed, action_repeat=repeat)
         print(f"video: {args.video}")
-    return {"trained": trained, "random": rand, **({"scripted": scripted} if scripted is not None else {})}
+    return {"trained": trained, **refs}
 
 
 if __name__ == "__main__":

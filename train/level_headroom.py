@@ -18,7 +18,6 @@ differences with their standard errors. 2D only: each x action is one number.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -95,9 +94,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--hold", type=int, default=10, help="env steps each action is held (default: %(default)s)")
     ap.add_argument("--run", type=Path, default=None, help="a train_ppo.py run folder to play the same episodes")
     args = ap.parse_args(argv)
-    for name in ("episodes", "sequences", "hold"):
-        if getattr(args, name) < 1:
-            ap.error(f"--{name} must be at least 1, got {getattr(args, name)}")
+    for name, low in (("episodes", 2), ("sequences", 1), ("hold", 1)):  # (2 episodes: a standard error)
+        if getattr(args, name) < low:
+            ap.error(f"--{name} must be at least {low}, got {getattr(args, name)}")
     kw = {"target": "random"}
     length = gym.spec(args.env_id).max_episode_steps or 150
     seqs, structured = sequences(args.sequences, -(-length // args.hold))
@@ -106,15 +105,15 @@ def main(argv=None) -> dict:
     table = best_of(args.env_id, seqs, args.hold, seeds, kw, length)
     best, best_structured = table.max(axis=1), table[:, :structured].max(axis=1)
     probe = C.make_env(args.env_id, args.episodes, SEED, kw)
-    sweep = _per_key(C.run_episodes(probe, C.scripted_policy(probe), args.episodes))
-    se = lambda d: float(np.std(d, ddof=1) / np.sqrt(len(d))) if len(d) > 1 else float("nan")  # noqa: E731
+    swept = C.run_episodes(probe, C.scripted_policy(probe), args.episodes)
+    sweep = _per_key(swept)  # (world k played seed SEED + k: the table's row k)
     out = {
         "episodes": args.episodes,
         "sequences": len(seqs),
         "best": float(best.mean()),
         "best_structured": float(best_structured.mean()),
         "sweep": float(sweep.mean()),
-        "best_minus_sweep": (float(np.mean(best - sweep)), se(best - sweep)),
+        "best_minus_sweep": C.mean_and_se(best - sweep),
         "best_sequence": [seqs[i].tolist() for i in table.argmax(axis=1)],
         "seconds": round(time.perf_counter() - t0, 1),
     }
@@ -125,20 +124,11 @@ def main(argv=None) -> dict:
         f"{out['best_minus_sweep'][0]:+.3f} ± {out['best_minus_sweep'][1]:.3f} (one standard error)"
     )
     if args.run is not None:
-        from stable_baselines3 import PPO
-        from stable_baselines3.common.vec_env import VecNormalize
-
-        summary = json.loads((args.run / "summary.json").read_text())
-        model = PPO.load(args.run / "model.zip", device="cpu")
         venv = C.make_env(args.env_id, args.episodes, SEED, kw)
-        vecnorm = None
-        if (args.run / "vecnormalize.pkl").exists():
-            vecnorm = VecNormalize.load(str(args.run / "vecnormalize.pkl"), venv)
-            vecnorm.training, vecnorm.norm_reward = False, False
-        repeat = int(summary.get("hyperparameters", {}).get("action_repeat", 1))
-        trained = _per_key(C.run_episodes(venv, C.model_policy(model, vecnorm), args.episodes, repeat))
-        out["trained"] = float(trained.mean())
-        out["trained_minus_sweep"] = (float(np.mean(trained - sweep)), se(trained - sweep))
+        policy, repeat = C.load_run(args.run, venv)
+        trained = C.run_episodes(venv, policy, args.episodes, repeat)
+        out["trained"] = float(trained["mean_return"])
+        out["trained_minus_sweep"] = C.paired_difference(trained, swept)[:2]
         print(
             f"the trained policy {out['trained']:.3f}: minus sweep {out['trained_minus_sweep'][0]:+.3f} "
             f"± {out['trained_minus_sweep'][1]:.3f}"

@@ -594,13 +594,8 @@ def train(
         s["final_episodes"],
         repeat,
     )
-    probe = C.make_env(env_id, n_eval_envs, final_seed, env_kwargs)
-    rand = C.run_episodes(probe, C.random_policy(probe.action_space, final_seed), s["final_episodes"])
-    sweep = C.scripted_policy(probe)  # (the level task's raster sweep)
-    scripted = None
-    if sweep is not None:
-        probe.seed(final_seed)  # (the same episodes again, on the same worlds)
-        scripted = C.run_episodes(probe, sweep, s["final_episodes"])
+    refs = C.baselines(env_id, n_eval_envs, final_seed, env_kwargs, s["final_episodes"])
+    rand, scripted = refs["random"], refs.get("scripted")  # (scripted: the level task's raster sweep)
 
     summary = {
         "env_id": env_id,
